@@ -1,0 +1,89 @@
+# fingertip: one entry point for users, developers and CI.
+#   make setup     Debian packages (when missing) and .venv with pinned Python packages
+#   make test      set-up, native C++ tests, firmware build, every pytest suite
+#   make firmware  the Uno firmware with avr-gcc (ELF + HEX, sizes checked)
+#   make bench     benchmarks -> docs/benchmarks.md and docs/benchmarks.json
+# Run `make help` for the rest.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+
+PYTHON ?= python3
+VENV := .venv
+VPY := $(VENV)/bin/python
+STAMPS := .stamps
+
+# Debian packages, grouped by what needs them (../shared/NOTES.md has the details).
+APT_BUILD := make g++ pkg-config
+APT_PYTHON := python3 python3-venv
+APT_FIRMWARE := gcc-avr avr-libc arduino-core-avr binutils-avr
+APT_NATIVE_TESTS := doctest-dev nlohmann-json3-dev
+APT_SIM := simavr libsimavr-dev libelf-dev
+APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM)
+
+PYTEST_ARGS ?=
+
+.PHONY: help setup system-packages venv test test-native test-python lint firmware sim \
+        bench vectors clean distclean
+
+help:
+	@sed -n '2,7p' Makefile | sed 's/^# *//'
+	@echo "  make test-native  only the C++ codec tests (sanitizers)"
+	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
+	@echo "  make lint         ruff on host/ and tests/"
+	@echo "  make vectors      regenerate tests/vectors/protocol_v1.json"
+	@echo "  make clean        remove build outputs (keeps .venv)"
+
+# --- set-up ---------------------------------------------------------------------------------
+
+setup: system-packages venv
+
+system-packages:
+	@tools/ensure-packages.sh $(APT_PACKAGES)
+
+venv: $(STAMPS)/venv
+
+$(STAMPS)/venv: pyproject.toml requirements/dev.txt | system-packages
+	@mkdir -p $(STAMPS)
+	@test -x $(VPY) || $(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install -q --disable-pip-version-check -c requirements/dev.txt \
+	    pip setuptools wheel
+	$(VPY) -m pip install -q --disable-pip-version-check -c requirements/dev.txt \
+	    --no-build-isolation -e ".[dev]"
+	@touch $@
+
+# --- build and test -------------------------------------------------------------------------
+
+test: setup
+	$(MAKE) --no-print-directory test-native
+	$(MAKE) --no-print-directory firmware
+	$(MAKE) --no-print-directory lint
+	$(MAKE) --no-print-directory test-python
+
+test-native: system-packages
+	$(MAKE) --no-print-directory -C firmware test-native
+
+firmware: system-packages
+	$(MAKE) --no-print-directory -C firmware avr-check
+
+lint: venv
+	$(VENV)/bin/ruff check host tests
+
+# pytest exits 5 when it collected nothing: that must fail, never pass as "green".
+test-python: venv
+	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
+	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
+	exit $$rc
+
+bench: setup
+	$(VPY) tests/bench/run.py
+
+vectors: venv
+	$(VPY) tests/vectors/generate.py
+
+clean:
+	rm -rf build firmware/build firmware/sim/build .pytest_cache
+
+distclean: clean
+	rm -rf $(VENV) $(STAMPS)

@@ -1,0 +1,32 @@
+"""Shared fixtures for every suite."""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+# Shared, noisy machines: no per-example deadline; in CI, the same examples on every run.
+settings.register_profile("default", deadline=None,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("ci", parent=settings.get_profile("default"), derandomize=True,
+                          print_blob=True)
+settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+ROOT = Path(__file__).resolve().parent.parent
+VECTORS_FILE = ROOT / "tests" / "vectors" / "protocol_v1.json"
+
+
+def load_vectors() -> dict:
+    data = json.loads(VECTORS_FILE.read_text(encoding="utf-8"))
+    # A vector file that lost its entries must fail loudly, not pass vacuously.
+    for key in ("crc", "cobs", "frames", "invalid", "streams"):
+        assert data.get(key), f"{VECTORS_FILE} has no {key!r} vectors"
+    return data
+
+
+@pytest.fixture(scope="session")
+def vectors() -> dict:
+    return load_vectors()
