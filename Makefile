@@ -17,7 +17,7 @@ STAMPS := .stamps
 # Debian packages, grouped by what needs them (../shared/NOTES.md has the details).
 APT_BUILD := make g++ pkg-config
 APT_PYTHON := python3 python3-venv
-APT_FIRMWARE := gcc-avr avr-libc arduino-core-avr binutils-avr
+APT_FIRMWARE := gcc-avr avr-libc arduino-core-avr binutils-avr avrdude
 APT_NATIVE_TESTS := doctest-dev nlohmann-json3-dev
 APT_SIM := simavr libsimavr-dev libelf-dev
 APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM)
