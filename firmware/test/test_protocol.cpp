@@ -90,6 +90,7 @@ ftp::MsgType commandType(const std::string& name) {
       {"reset_counters", ftp::MsgType::ResetCounters},
       {"set_power", ftp::MsgType::SetPower},
       {"get_stats", ftp::MsgType::GetStats},
+      {"set_tare_offsets", ftp::MsgType::SetTareOffsets},
   };
   auto it = m.find(name);
   REQUIRE_MESSAGE(it != m.end(), "unknown command name in vectors: " << name);
@@ -159,7 +160,8 @@ bool sameResult(const ftp::RxResult& a, const ftp::RxResult& b) {
          a.command.channel_mask == b.command.channel_mask &&
          a.command.samples == b.command.samples && a.command.rate_sps == b.command.rate_sps &&
          a.command.decimation == b.command.decimation && a.command.gain == b.command.gain &&
-         a.command.on == b.command.on;
+         a.command.on == b.command.on &&
+         memcmp(a.command.offsets, b.command.offsets, sizeof(a.command.offsets)) == 0;
 }
 
 uint32_t counterSum(const ftp::RxCounters& c) {
@@ -398,6 +400,10 @@ TEST_CASE("vectors: host frames decode to every field") {
     CHECK(c.decimation == m.value("decimation", 0u));
     CHECK(c.gain == m.value("gain", 0u));
     CHECK(c.on == m.value("on", 0u));
+    for (int ch = 0; ch < ftp::kMaxChannels; ++ch) {
+      const int32_t want = m.contains("offsets") ? m.at("offsets").at(ch).get<int32_t>() : 0;
+      CHECK(c.offsets[ch] == want);
+    }
     CHECK(rx.counters().commands_ok == 1);
     CHECK(counterSum(rx.counters()) == 1);
     ++n;
@@ -634,7 +640,11 @@ TEST_CASE("receiver: argument ranges of section 5") {
       {0x0A, {0}, ftp::NackError::BadLength},
       {0x08, {1, 2}, ftp::NackError::BadLength},
       {0x00, {}, ftp::NackError::UnknownCommand},
-      {0x0B, {}, ftp::NackError::UnknownCommand},
+      {0x0B, {}, ftp::NackError::BadLength},  // SET_TARE_OFFSETS without its mask
+      {0x0C, {}, ftp::NackError::UnknownCommand},
+      {0x0B, {0x01, 0x00, 0xFF, 0xFF, 0x7F}, ftp::NackError::None},
+      {0x0B, {0x01, 0x00, 0xFF, 0xFF}, ftp::NackError::BadLength},
+      {0x0B, {0x00, 0x00}, ftp::NackError::BadArgument},
       {0x84, {1, 0, 1}, ftp::NackError::UnknownCommand},  // an ACK sent to the device
       {0xFF, {}, ftp::NackError::UnknownCommand},
   };

@@ -21,6 +21,7 @@ from fingertip.protocol import (
     SetGain,
     SetPower,
     SetRate,
+    SetTareOffsets,
     Start,
     Stats,
     Stop,
@@ -69,6 +70,9 @@ commands = st.one_of(
     st.builds(SetRate, u16, st.sampled_from([10, 80]), st.integers(1, 255)),
     st.builds(SetGain, u16, st.sampled_from([128, 64, 32])),
     st.builds(SetPower, u16, st.integers(0, 1)),
+    st.builds(lambda rid, mask, offs: SetTareOffsets(
+        rid, mask, tuple(v if mask >> i & 1 else 0 for i, v in enumerate(offs))),
+        u16, st.integers(1, 0xFFFF), st.lists(i24, min_size=16, max_size=16)),
 )
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from fingertip.protocol import (
     Ack, ErrorCode, GetInfo, GetStats, Info, Log, Nack, Ping, ResetCounters, Sample, SetGain,
-    SetPower, SetRate, Start, Stats, Stop, StreamDecoder, Tare, encode,
+    SetPower, SetRate, Start, Stats, Stop, StreamDecoder, Tare, SetTareOffsets, encode,
 )
 from fingertip.sim import VirtualFirmware
 
@@ -109,3 +109,15 @@ def test_busy_during_tare_and_gain_change_discards_one_reading():
     out = run(dev2, Start(1), SetGain(2, 64), until_us=50_000)
     samples = [m for m in out if isinstance(m, Sample)]
     assert len(samples) == 3 and samples[0].values[0] == 500  # first one discarded
+
+
+def test_set_tare_offsets_restores_a_calibration():
+    dev = VirtualFirmware(4, source=lambda t: (100, 200, 300, 400))
+    dev.boot()
+    offs = (10, -20, 0, 0) + (0,) * 12
+    out = run(dev, SetTareOffsets(1, 0b0011, offs), Start(2), until_us=20_000)
+    assert isinstance(out[0], Ack)
+    sample = [m for m in out if isinstance(m, Sample)][0]
+    assert sample.values == (90, 220, 300, 400)
+    out = run(dev, SetTareOffsets(3, 0b10000, (0,) * 16))
+    assert isinstance(out[0], Nack) and out[0].error == ErrorCode.BAD_ARGUMENT

@@ -23,7 +23,7 @@ DEVICE_TYPES = {"sample": 0x81, "info": 0x82, "stats": 0x83, "ack": 0x84, "nack"
 COMMAND_TYPES = {
     "ping": 0x01, "get_info": 0x02, "start": 0x03, "stop": 0x04, "tare": 0x05,
     "set_rate": 0x06, "set_gain": 0x07, "reset_counters": 0x08, "set_power": 0x09,
-    "get_stats": 0x0A,
+    "get_stats": 0x0A, "set_tare_offsets": 0x0B,
 }
 STATS_FIELDS = [
     "timestamp_us", "frames_sent", "read_timeouts", "saturations", "command_errors",
@@ -92,6 +92,10 @@ def payload_of(m: dict) -> tuple[int, bytes]:
         return COMMAND_TYPES[t], struct.pack("<B", m["gain"])
     if t == "set_power":
         return COMMAND_TYPES[t], struct.pack("<B", m["on"])
+    if t == "set_tare_offsets":
+        mask = m["channel_mask"]
+        chosen = [v for i, v in enumerate(m["offsets"]) if mask >> i & 1]
+        return COMMAND_TYPES[t], struct.pack("<H", mask) + b"".join(i24(v) for v in chosen)
     return COMMAND_TYPES[t], b""
 
 
@@ -183,6 +187,13 @@ def valid_frames() -> list[dict]:
     add("set_power_off", "host", {"type": "set_power", "request_id": 11, "on": 0})
     add("set_power_on", "host", {"type": "set_power", "request_id": 12, "on": 1})
     add("get_stats", "host", {"type": "get_stats", "request_id": 256})
+    # offsets: one per channel (16), only the masked ones travel; the others read as 0.
+    add("set_tare_offsets_4ch", "host",
+        {"type": "set_tare_offsets", "request_id": 13, "channel_mask": 0x000F,
+         "offsets": [-123456, 654321, 0, -1] + [0] * 12})
+    add("set_tare_offsets_sparse_16ch", "host",
+        {"type": "set_tare_offsets", "request_id": 14, "channel_mask": 0x8001,
+         "offsets": [0x7FFFFF] + [0] * 14 + [-0x800000]})
     for item in v:
         item["hex"] = wire(item["message"]).hex()
     return v
@@ -267,6 +278,13 @@ def invalid_inputs() -> list[dict]:
         "bad_payload", "channel mask 0", command_error=3)
     add("tare_too_many_samples", "host", enc(frame(0x05, 4, struct.pack("<HH", 1, 257))),
         "bad_payload", "257 samples", command_error=3)
+    add("set_tare_offsets_zero_mask", "host", enc(frame(0x0B, 4, b"\x00\x00")),
+        "bad_payload", "channel mask 0", command_error=3)
+    add("set_tare_offsets_length_mismatch", "host",
+        enc(frame(0x0B, 4, b"\x03\x00" + i24(5))), "bad_payload",
+        "two channels in the mask, one offset sent", command_error=2)
+    add("set_tare_offsets_no_mask", "host", enc(frame(0x0B, 4, b"\x03")), "bad_payload",
+        "one payload byte: not even a mask", command_error=2)
     add("set_power_bad", "host", enc(frame(0x09, 4, b"\x02")), "bad_payload", "on = 2",
         command_error=3)
     return v

@@ -37,6 +37,7 @@ enum class MsgType : uint8_t {
   ResetCounters = 0x08,
   SetPower = 0x09,
   GetStats = 0x0A,
+  SetTareOffsets = 0x0B,
   // Device messages (device to host).
   Sample = 0x81,
   Info = 0x82,

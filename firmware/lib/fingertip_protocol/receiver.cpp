@@ -4,6 +4,7 @@
 
 #include "cobs.h"
 #include "crc16.h"
+#include "int24.h"
 
 namespace ftp {
 
@@ -11,6 +12,19 @@ namespace {
 
 uint16_t getU16(const uint8_t* p) {
   return static_cast<uint16_t>(p[0] | (static_cast<uint16_t>(p[1]) << 8));
+}
+
+int32_t readInt24(const uint8_t* p) {
+  return signExtend24(static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
+                      (static_cast<uint32_t>(p[2]) << 16));
+}
+
+uint8_t popcount16(uint16_t v) {
+  uint8_t n = 0;
+  for (; v != 0; v = static_cast<uint16_t>(v & (v - 1))) {
+    ++n;
+  }
+  return n;
 }
 
 const uint16_t kMaxTareSamples = 256;
@@ -61,6 +75,10 @@ void parseCommandFrame(const uint8_t* frame, size_t len, RxResult& result) {
     case MsgType::SetPower:
       expected = 1;
       break;
+    case MsgType::SetTareOffsets:
+      // Variable length: the mask says how many int24 offsets follow.
+      expected = n >= 2 ? 2 + 3 * static_cast<size_t>(popcount16(getU16(p))) : 2;
+      break;
     default:  // device message types land here too: not a command
       reject(result, RxError::UnknownType, NackError::UnknownCommand);
       return;
@@ -90,6 +108,18 @@ void parseCommandFrame(const uint8_t* frame, size_t len, RxResult& result) {
       c.on = p[0];
       ok = c.on <= 1;
       break;
+    case MsgType::SetTareOffsets: {
+      c.channel_mask = getU16(p);
+      ok = c.channel_mask != 0;
+      const uint8_t* q = p + 2;
+      for (uint8_t i = 0; i < kMaxChannels; ++i) {
+        if ((c.channel_mask >> i) & 1u) {
+          c.offsets[i] = readInt24(q);
+          q += 3;
+        }
+      }
+      break;
+    }
     default:
       break;
   }

@@ -19,6 +19,8 @@ struct Command {
   uint8_t decimation;     // SET_RATE, 1..255
   uint8_t gain;           // SET_GAIN, 128, 64 or 32
   uint8_t on;             // SET_POWER, 0 or 1
+  // SET_TARE_OFFSETS: indexed by channel; only channels in channel_mask were sent (others 0).
+  int32_t offsets[kMaxChannels];
 };
 
 struct RxResult {

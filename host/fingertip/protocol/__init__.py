@@ -42,6 +42,7 @@ from .messages import (
     SetGain,
     SetPower,
     SetRate,
+    SetTareOffsets,
     Start,
     Stats,
     Stop,
@@ -60,7 +61,8 @@ __all__ = [
     "DecoderStats", "DeviceMessage", "Direction", "ErrorCode", "ForeignInfo", "FrameError",
     "GetInfo", "GetStats", "Info", "InfoReason", "Log", "LogLevel", "Message", "MsgType",
     "Nack", "Ping", "ProtocolVersionError", "RejectedCommand", "ResetCounters", "Sample",
-    "SetGain", "SetPower", "SetRate", "Start", "Stats", "Stop", "StreamDecoder", "Tare",
+    "SetGain", "SetPower", "SetRate", "SetTareOffsets", "Start", "Stats", "Stop",
+    "StreamDecoder", "Tare",
     "cobs_decode", "cobs_encode", "crc16", "decode_frame", "encode", "message_from_dict",
     "message_name", "message_to_dict", "pack_frame", "require_compatible",
 ]

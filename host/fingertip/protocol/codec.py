@@ -43,6 +43,7 @@ from .messages import (
     SetGain,
     SetPower,
     SetRate,
+    SetTareOffsets,
     Start,
     Stats,
     Stop,
@@ -62,6 +63,7 @@ _STATS = struct.Struct("<10I")
 _ACK = struct.Struct("<HB")
 _NACK = struct.Struct("<HBB")
 _TARE = struct.Struct("<HH")
+_TARE_MASK = struct.Struct("<H")
 _SAMPLE_VALUES_AT = _SAMPLE_HEAD.size  # 12
 _SAMPLE_HEAD_PAYLOAD = _SAMPLE_HEAD.size - HEADER_LEN
 _INFO_PAYLOAD = _INFO_HEAD.size
@@ -136,6 +138,11 @@ def _payload(msg: Message) -> bytes:
         return bytes([msg.gain])
     if isinstance(msg, SetPower):
         return bytes([msg.on])
+    if isinstance(msg, SetTareOffsets):
+        if not 0 <= msg.channel_mask <= 0xFFFF:
+            raise ValueError("channel mask must fit in 16 bits")
+        chosen = [msg.offsets[i] for i in range(MAX_CHANNELS) if msg.channel_mask >> i & 1]
+        return _TARE_MASK.pack(msg.channel_mask) + _i24(chosen, "tare offset")
     if isinstance(msg, (Ping, GetInfo, Start, Stop, ResetCounters, GetStats)):
         return b""
     raise TypeError(f"not a protocol message: {msg!r}")
@@ -233,7 +240,7 @@ def _decode_device(t: int, seq: int, frame: bytes | bytearray) -> Message:
 _COMMAND_LEN = {
     MsgType.PING: 0, MsgType.GET_INFO: 0, MsgType.START: 0, MsgType.STOP: 0,
     MsgType.TARE: 4, MsgType.SET_RATE: 2, MsgType.SET_GAIN: 1, MsgType.RESET_COUNTERS: 0,
-    MsgType.SET_POWER: 1, MsgType.GET_STATS: 0,
+    MsgType.SET_POWER: 1, MsgType.GET_STATS: 0, MsgType.SET_TARE_OFFSETS: 2,
 }
 
 
@@ -245,6 +252,8 @@ def _decode_command(t: int, rid: int, frame: bytes | bytearray) -> Message:
                           "unknown_type", detail, nack=code, request_id=rid, command=t)
 
     want = _COMMAND_LEN.get(t)  # type: ignore[call-overload]
+    if t == MsgType.SET_TARE_OFFSETS and len(p) >= 2:
+        want = 2 + 3 * bin(p[0] | p[1] << 8).count("1")
     if want is None:
         raise refuse(ErrorCode.UNKNOWN_COMMAND, f"type 0x{t:02X} is not a command")
     if len(p) != want:
@@ -268,6 +277,13 @@ def _decode_command(t: int, rid: int, frame: bytes | bytearray) -> Message:
         if p[0] > 1:
             raise refuse(ErrorCode.BAD_ARGUMENT, f"SET_POWER {p[0]}")
         return SetPower(rid, p[0])
+    if t == MsgType.SET_TARE_OFFSETS:
+        (mask,) = _TARE_MASK.unpack_from(p)
+        if mask == 0:
+            raise refuse(ErrorCode.BAD_ARGUMENT, "SET_TARE_OFFSETS with channel mask 0")
+        chosen = iter(_int24s(p, 2, (len(p) - 2) // 3))
+        offsets = tuple(next(chosen) if mask >> i & 1 else 0 for i in range(MAX_CHANNELS))
+        return SetTareOffsets(rid, mask, offsets)
     return CLASS_BY_TYPE[t](rid)
 
 

@@ -35,6 +35,7 @@ class MsgType(IntEnum):
     RESET_COUNTERS = 0x08
     SET_POWER = 0x09
     GET_STATS = 0x0A
+    SET_TARE_OFFSETS = 0x0B
     SAMPLE = 0x81
     INFO = 0x82
     STATS = 0x83
@@ -278,6 +279,17 @@ class GetStats:
 
 
 @dataclass(slots=True)
+class SetTareOffsets:
+    """Set the offsets of the masked channels; ``offsets`` has one entry per channel index
+    (entries outside the mask are not sent and decode as 0)."""
+
+    TYPE: ClassVar[MsgType] = MsgType.SET_TARE_OFFSETS
+    request_id: int = 0
+    channel_mask: int = 0
+    offsets: tuple[int, ...] = (0,) * MAX_CHANNELS
+
+
+@dataclass(slots=True)
 class RejectedCommand:
     """An intact command frame the device must answer with a NACK (not a wire message)."""
 
@@ -289,12 +301,12 @@ class RejectedCommand:
 
 DeviceMessage = Sample | Info | ForeignInfo | Stats | Ack | Nack | Log
 Command = (Ping | GetInfo | Start | Stop | Tare | SetRate | SetGain | ResetCounters | SetPower
-           | GetStats)
+           | GetStats | SetTareOffsets)
 Message = DeviceMessage | Command
 
 DEVICE_MESSAGES: tuple[type, ...] = (Sample, Info, Stats, Ack, Nack, Log)
 COMMANDS: tuple[type, ...] = (Ping, GetInfo, Start, Stop, Tare, SetRate, SetGain,
-                              ResetCounters, SetPower, GetStats)
+                              ResetCounters, SetPower, GetStats, SetTareOffsets)
 CLASS_BY_TYPE: dict[int, type] = {cls.TYPE: cls for cls in DEVICE_MESSAGES + COMMANDS}
 CLASS_BY_NAME: dict[str, type] = {cls.TYPE.name.lower(): cls for cls in CLASS_BY_TYPE.values()}
 
@@ -321,7 +333,7 @@ def message_from_dict(d: dict[str, Any]) -> Message:
         cls = CLASS_BY_NAME[name]
     except KeyError:
         raise ValueError(f"unknown message type {name!r}") from None
-    for key in ("values", "tare_offsets", "firmware_version"):
+    for key in ("values", "tare_offsets", "firmware_version", "offsets"):
         if key in d:
             d[key] = tuple(d[key])
     return cls(**d)

@@ -31,6 +31,7 @@ from ..protocol import (
     SetGain,
     SetPower,
     SetRate,
+    SetTareOffsets,
     Start,
     Stats,
     Stop,
@@ -173,6 +174,13 @@ class VirtualFirmware:
             return self._start_tare(cmd)
         if self._tare is not None:
             return self._nack(rid, t, ErrorCode.BUSY)
+        if isinstance(cmd, SetTareOffsets):
+            if not cmd.channel_mask or cmd.channel_mask >> self.channels:
+                return self._nack(rid, t, ErrorCode.BAD_ARGUMENT)
+            for i in range(self.channels):
+                if cmd.channel_mask >> i & 1:
+                    self.offsets[i] = cmd.offsets[i]
+            return self._send(ack)
         if isinstance(cmd, SetRate):
             self.rate_sps, self.decimation = cmd.rate_sps, cmd.decimation
             self._conversions = 0
