@@ -8,3 +8,11 @@ import logging
 __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
+
+from .device import (  # noqa: E402  (after the version, which submodules may read)
+    BridgeStats, CommandFailed, CommandTimeout, Fingertip, FingertipError, Frame, NotConnected,
+)
+from .protocol import ProtocolVersionError  # noqa: E402
+
+__all__ = ["BridgeStats", "CommandFailed", "CommandTimeout", "Fingertip", "FingertipError",
+           "Frame", "NotConnected", "ProtocolVersionError", "__version__"]

@@ -1,4 +1,9 @@
 """Device layer: a fingertip's commands, streams, counters and clock mapping."""
+from .fingertip import (
+    BridgeStats, CommandFailed, CommandTimeout, Fingertip, FingertipError, Frame, NotConnected,
+    Settings,
+)
 from .timesync import ClockFit, ClockSync, Unwrapper
 
-__all__ = ["ClockFit", "ClockSync", "Unwrapper"]
+__all__ = ["BridgeStats", "ClockFit", "ClockSync", "CommandFailed", "CommandTimeout",
+           "Fingertip", "FingertipError", "Frame", "NotConnected", "Settings", "Unwrapper"]

@@ -72,16 +72,19 @@ class ClockSync:
     ``window_s``: how much history the fit uses (longer = less noise, slower to follow
     temperature drift). ``bin_s``: each bin contributes its earliest arrival. ``max_skew``:
     rates further off than this are rejected as nonsense (a reset or a bad clock).
+    ``min_span_s``: below this much history the rate is taken as nominal, because a slope
+    fitted over a second or two of jittery arrivals is worse than assuming 0 ppm.
     """
 
     def __init__(self, window_s: float = 20.0, bin_s: float = 0.25, max_skew: float = 2e-3,
-                 refit_every: int = 8) -> None:
+                 refit_every: int = 8, min_span_s: float = 4.0) -> None:
         if window_s <= 2 * bin_s:
             raise ValueError("window_s must span several bins")
         self.window_s = window_s
         self.bin_s = bin_s
         self.max_skew = max_skew
         self.refit_every = refit_every
+        self.min_span_s = min_span_s
         self._unwrap = Unwrapper()
         # Each bin: [bin index, device_us, host_s - device_s] of its earliest arrival.
         self._bins: deque[list[float]] = deque()
@@ -146,7 +149,7 @@ class ClockSync:
         sxx = sum((x - mx) ** 2 for x in xs)
         sxy = sum((x - mx) * (y - my) for x, y in zip(xs, ys, strict=True))
         slope = sxy / sxx if sxx > 0 else 0.0
-        if abs(slope) > self.max_skew:
+        if abs(slope) > self.max_skew or -xs[0] < self.min_span_s:
             slope = 0.0
         # Lower envelope: shift the line down to touch the earliest arrival.
         intercept = min(y - slope * x for x, y in zip(xs, ys, strict=True))

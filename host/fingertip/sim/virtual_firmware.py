@@ -121,9 +121,13 @@ class VirtualFirmware:
 
     # --- output ---------------------------------------------------------------------------
 
-    def boot(self) -> bytes:
-        """The bytes a freshly reset device sends."""
+    def boot(self, start_us: int = 0) -> bytes:
+        """Reset, and return the bytes a freshly reset device sends. ``start_us``: the device
+        clock at boot (a real one starts at 0; later values test the 32-bit wraparound)."""
         self.reset()
+        self.now_us = start_us
+        self._next_conversion_us = start_us + self.period_us
+        self._next_stats_us = start_us + 1_000_000
         text = (f"fingertip fw {'.'.join(map(str, FIRMWARE_VERSION))}, "
                 f"{self.channels} channels")
         return (b"\x00" + self._send(self._info(InfoReason.BOOT))

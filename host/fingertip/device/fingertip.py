@@ -1,0 +1,580 @@
+"""``Fingertip``: one device, its commands, its frame stream, its counters, its clock.
+
+A background thread reads the port, decodes frames, maps device time to host time and hands
+frames to a bounded queue and to callbacks. Commands wait for their ACK or NACK. When the
+port vanishes (cable pulled, pty closed, simulator restarted) or the device resets, the
+thread reconnects by itself, re-applies rate, gain and tare offsets and resumes streaming,
+and counts it; user loops only ever see it through :attr:`Fingertip.status`.
+"""
+from __future__ import annotations
+
+import itertools
+import logging
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+
+from ..protocol import (
+    MAX_CHANNELS, Ack, Command, ErrorCode, ForeignInfo, GetInfo, GetStats, Info, Log, Nack,
+    Ping, ProtocolVersionError, ResetCounters, Sample, SetGain, SetPower, SetRate,
+    SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, require_compatible,
+)
+from ..transport import ByteStream, TransportError, find_port, open_serial
+from .timesync import ClockSync
+
+log = logging.getLogger(__name__)
+
+StreamFactory = Callable[[str], ByteStream]
+
+
+class FingertipError(RuntimeError):
+    """Base class of the errors a :class:`Fingertip` raises from its commands."""
+
+
+class CommandFailed(FingertipError):
+    """The device answered NACK. ``code`` is the :class:`ErrorCode`."""
+
+    def __init__(self, command: str, code: int) -> None:
+        try:
+            name = ErrorCode(code).name
+        except ValueError:
+            name = f"error {code}"
+        super().__init__(f"{command} refused by the device: {name}")
+        self.code = code
+
+
+class CommandTimeout(FingertipError, TimeoutError):
+    """No answer from the device in time (after the retries)."""
+
+
+class NotConnected(FingertipError):
+    """The device is not connected (closed, or reconnecting for longer than the timeout)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """One sample frame, as user code sees it."""
+
+    seq: int
+    device_time_us: int
+    """Device microseconds, unwrapped (no 32-bit wraparound)."""
+    host_time: float
+    """Device time mapped to this host's ``time.monotonic()`` seconds (drift corrected)."""
+    arrival_time: float
+    """``time.monotonic()`` when the frame's last byte was read."""
+    counts: tuple[int, ...]
+    """Raw HX711 counts per channel, tare offsets already subtracted by the device."""
+    timeout_mask: int = 0
+    saturation_mask: int = 0
+
+    @property
+    def ok(self) -> bool:
+        """No channel timed out or saturated."""
+        return not (self.timeout_mask | self.saturation_mask)
+
+    def valid(self, channel: int) -> bool:
+        return not ((self.timeout_mask | self.saturation_mask) >> channel & 1)
+
+
+@dataclass(slots=True)
+class BridgeStats:
+    """What the host saw (the device's own counters: :meth:`Fingertip.device_stats`)."""
+
+    frames_ok: int = 0
+    bytes_in: int = 0
+    crc_errors: int = 0
+    cobs_errors: int = 0
+    framing_errors: int = 0
+    """Frames too short or too long."""
+    unknown_type: int = 0
+    bad_payload: int = 0
+    seq_gaps: int = 0
+    frames_lost: int = 0
+    overruns: int = 0
+    """Frames dropped because user code did not read the queue fast enough."""
+    reconnects: int = 0
+    device_resets: int = 0
+    callback_errors: int = 0
+    command_retries: int = 0
+    log_lines: int = 0
+
+
+@dataclass
+class _Pending:
+    command: Command
+    done: threading.Event = field(default_factory=threading.Event)
+    replies: list = field(default_factory=list)
+    result: Ack | Nack | None = None
+
+
+@dataclass
+class Settings:
+    """What the host wants the device to be; re-applied after a reconnect or reset."""
+
+    rate_sps: int = 80
+    decimation: int = 1
+    gain: int = 128
+    offsets: tuple[int, ...] = ()
+    streaming: bool = False
+
+
+class Fingertip:
+    """One fingertip device.
+
+    Open it by ``port`` (``/dev/ttyACM0``, a pty path, a by-id link) or by the USB
+    ``serial_number`` of its Arduino. ``open_stream`` replaces pyserial (tests, files).
+
+    >>> with Fingertip("/dev/ttyACM0") as ft:           # doctest: +SKIP
+    ...     ft.tare(samples=16)
+    ...     ft.start()
+    ...     for frame in ft.frames(timeout=1.0):
+    ...         print(frame.host_time, frame.counts)
+    """
+
+    def __init__(self, port: str | None = None, *, serial_number: str | None = None,
+                 baudrate: int = 115200, open_stream: StreamFactory | None = None,
+                 queue_size: int = 4096, reconnect: bool = True,
+                 command_timeout: float = 0.5, retries: int = 2, open_timeout: float = 4.0,
+                 name: str | None = None) -> None:
+        if (port is None) == (serial_number is None):
+            raise ValueError("give exactly one of port or serial_number")
+        self._port_arg = port
+        self.serial_number = serial_number
+        self.baudrate = baudrate
+        self._open_stream = open_stream or (lambda p: open_serial(p, baudrate))
+        self.reconnect = reconnect
+        self.command_timeout = command_timeout
+        self.retries = retries
+        self.open_timeout = open_timeout
+        self.name = name or port or serial_number or "fingertip"
+        self._counters = BridgeStats()
+        self.clock = ClockSync()
+        self.settings = Settings()
+        self._decoder = StreamDecoder("device")
+        self._stream: ByteStream | None = None
+        self._queue: deque[Frame] = deque(maxlen=queue_size)
+        self._cond = threading.Condition()
+        self._callbacks: list[Callable[[Frame], None]] = []
+        self._pending: deque[_Pending] = deque()
+        self._pending_lock = threading.Lock()
+        self._write_lock = threading.Lock()
+        self._request_ids = itertools.cycle(range(1, 0x10000))
+        self._info: Info | None = None
+        self._device_stats: Stats | None = None
+        self._status = "closed"
+        self._connected = threading.Event()
+        self._closing = threading.Event()
+        self._reader: threading.Thread | None = None
+        self._restore_needed = threading.Event()
+        self._restorer: threading.Thread | None = None
+        self.port = ""
+
+    # --- opening and closing --------------------------------------------------------------
+
+    def open(self) -> Fingertip:
+        """Connect, check the protocol version, and learn the device's set-up."""
+        if self._status != "closed":
+            return self
+        self._closing.clear()
+        self._connect_once()  # raises TransportError with a clear message
+        self._status = "connected"
+        self._reader = threading.Thread(target=self._read_loop, daemon=True,
+                                        name=f"fingertip-reader-{self.name}")
+        self._reader.start()
+        self._restorer = threading.Thread(target=self._restore_loop, daemon=True,
+                                          name=f"fingertip-restore-{self.name}")
+        self._restorer.start()
+        try:
+            info = self._handshake(self.open_timeout)
+        except BaseException:
+            self.close()
+            raise
+        self.settings = Settings(info.rate_sps, info.decimation, info.gain, info.tare_offsets,
+                                 info.streaming)
+        return self
+
+    def close(self) -> None:
+        """Stop the threads and release the port. Pending commands fail with NotConnected."""
+        self._closing.set()
+        self._status = "closed"
+        self._connected.clear()
+        self._restore_needed.set()
+        for t in (self._reader, self._restorer):
+            if t and t is not threading.current_thread():
+                t.join(timeout=2)
+        self._reader = self._restorer = None
+        if self._stream:
+            self._stream.close()
+            self._stream = None
+        self._fail_pending()
+        with self._cond:
+            self._cond.notify_all()
+
+    def __enter__(self) -> Fingertip:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _resolve_port(self) -> str:
+        if self._port_arg is not None:
+            return self._port_arg
+        assert self.serial_number is not None
+        return find_port(self.serial_number).device
+
+    def _connect_once(self) -> None:
+        port = self._resolve_port()
+        stream = self._open_stream(port)
+        self._stream = stream
+        self.port = port
+        self._decoder.reset()
+        self.clock.reset()
+        self._connected.set()
+
+    def _handshake(self, timeout: float) -> Info:
+        """GET_INFO until answered (a real Uno resets when the port opens and boots for ~2 s)."""
+        deadline = time.monotonic() + timeout
+        last: Exception | None = None
+        while time.monotonic() < deadline:
+            try:
+                return self.get_info(timeout=min(0.5, max(0.05, deadline - time.monotonic())),
+                                     retries=0)
+            except ProtocolVersionError:
+                raise
+            except (CommandTimeout, NotConnected) as e:
+                last = e
+        raise CommandTimeout(f"{self.name}: no answer from a fingertip on {self.port} within "
+                             f"{timeout:.1f} s (is the firmware flashed? right port?): {last}")
+
+    # --- state ----------------------------------------------------------------------------
+
+    @property
+    def stats(self) -> BridgeStats:
+        """Counters of everything the host saw and lost (a snapshot)."""
+        d = self._decoder.stats
+        c = self._counters
+        return BridgeStats(
+            frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc, cobs_errors=d.cobs,
+            framing_errors=d.too_short + d.too_long, unknown_type=d.unknown_type,
+            bad_payload=d.bad_payload, seq_gaps=d.seq_gaps, frames_lost=d.frames_lost,
+            overruns=c.overruns, reconnects=c.reconnects, device_resets=c.device_resets,
+            callback_errors=c.callback_errors, command_retries=c.command_retries,
+            log_lines=c.log_lines)
+
+    @property
+    def status(self) -> str:
+        """``"connected"``, ``"reconnecting"`` or ``"closed"``."""
+        return self._status
+
+    @property
+    def info(self) -> Info:
+        if self._info is None:
+            raise NotConnected(f"{self.name} is not open")
+        return self._info
+
+    @property
+    def channels(self) -> int:
+        return self.info.channels
+
+    # --- frames ---------------------------------------------------------------------------
+
+    def read(self, timeout: float | None = None) -> Frame | None:
+        """The next frame, or None after ``timeout`` seconds (or when closed)."""
+        with self._cond:
+            if not self._queue:
+                if self._status == "closed":
+                    return None
+                self._cond.wait(timeout)
+            return self._queue.popleft() if self._queue else None
+
+    def frames(self, timeout: float | None = None) -> Iterator[Frame]:
+        """Iterate over frames until ``timeout`` passes without one, or the device closes."""
+        while True:
+            f = self.read(timeout)
+            if f is None:
+                return
+            yield f
+
+    def __iter__(self) -> Iterator[Frame]:
+        return self.frames()
+
+    def drain(self) -> list[Frame]:
+        """All frames queued so far, without waiting."""
+        with self._cond:
+            out = list(self._queue)
+            self._queue.clear()
+        return out
+
+    def add_callback(self, fn: Callable[[Frame], None]) -> None:
+        """Call ``fn(frame)`` from the reader thread for every frame (keep it short)."""
+        self._callbacks.append(fn)
+
+    def remove_callback(self, fn: Callable[[Frame], None]) -> None:
+        self._callbacks.remove(fn)
+
+    # --- commands -------------------------------------------------------------------------
+
+    def ping(self) -> float:
+        """Round-trip time in seconds."""
+        t0 = time.monotonic()
+        self._command(Ping())
+        return time.monotonic() - t0
+
+    def get_info(self, timeout: float | None = None, retries: int | None = None) -> Info:
+        replies = self._command(GetInfo(), timeout=timeout, retries=retries)
+        info = next((r for r in replies if isinstance(r, (Info, ForeignInfo))), None)
+        if info is None:
+            raise FingertipError(f"{self.name}: ACK to GET_INFO came without INFO")
+        self._info = require_compatible(info)
+        return self._info
+
+    def device_stats(self) -> Stats:
+        """The device's own counters (GET_STATS)."""
+        replies = self._command(GetStats())
+        stats = next((r for r in replies if isinstance(r, Stats)), None)
+        if stats is None:
+            raise FingertipError(f"{self.name}: ACK to GET_STATS came without STATS")
+        self._device_stats = stats
+        return stats
+
+    def start(self) -> None:
+        self._command(Start())
+        self.settings.streaming = True
+
+    def stop(self) -> None:
+        self._command(Stop())
+        self.settings.streaming = False
+
+    def set_rate(self, rate_sps: int, decimation: int = 1) -> None:
+        """Tell the device its chips' rate (10 or 80 SPS) and keep every n-th conversion."""
+        self._command(SetRate(0, rate_sps, decimation))
+        self.settings.rate_sps, self.settings.decimation = rate_sps, decimation
+
+    def set_gain(self, gain: int) -> None:
+        self._command(SetGain(0, gain))
+        self.settings.gain = gain
+
+    def power(self, on: bool) -> None:
+        self._command(SetPower(0, int(on)))
+        if not on:
+            self.settings.streaming = False
+
+    def reset_counters(self) -> None:
+        self._command(ResetCounters())
+
+    def tare(self, channels: int | list[int] | None = None, samples: int = 16) -> tuple[int, ...]:
+        """Average ``samples`` readings on the device and subtract them from then on.
+
+        ``channels``: a list of channel numbers, a bit mask, or None for all. Returns the
+        offsets now in use. ``samples=0`` clears the offsets of those channels.
+        """
+        n = self.channels
+        if channels is None:
+            mask = (1 << n) - 1
+        elif isinstance(channels, int):
+            mask = channels
+        else:
+            mask = 0
+            for c in channels:
+                if not 0 <= c < n:
+                    raise ValueError(f"channel {c} does not exist (this device has {n})")
+                mask |= 1 << c
+        s = self.settings
+        wait = samples * s.decimation / s.rate_sps * 1.6 + 0.5
+        self._command(Tare(0, mask, samples), timeout=wait, retries=0)
+        offsets = self.get_info().tare_offsets
+        self.settings.offsets = offsets
+        return offsets
+
+    def set_tare_offsets(self, offsets: list[int] | tuple[int, ...]) -> None:
+        """Put known offsets (one per channel) back on the device."""
+        if len(offsets) != self.channels:
+            raise ValueError(f"need {self.channels} offsets, got {len(offsets)}")
+        padded = tuple(offsets) + (0,) * (MAX_CHANNELS - len(offsets))
+        self._command(SetTareOffsets(0, (1 << len(offsets)) - 1, padded))
+        self.settings.offsets = tuple(offsets)
+
+    def _command(self, cmd: Command, timeout: float | None = None,
+                 retries: int | None = None) -> list:
+        """Send ``cmd`` and wait for its ACK; return the messages that came before the ACK."""
+        timeout = self.command_timeout if timeout is None else timeout
+        retries = self.retries if retries is None else retries
+        name = type(cmd).__name__
+        for attempt in range(retries + 1):
+            if not self._connected.wait(timeout):
+                raise NotConnected(f"{self.name}: not connected ({self._status})")
+            cmd.request_id = next(self._request_ids)
+            pending = _Pending(cmd)
+            with self._pending_lock:
+                self._pending.append(pending)
+            try:
+                self._write(encode(cmd))
+            except TransportError:
+                pass  # the reader notices the loss and reconnects; the retry goes out then
+            if pending.done.wait(timeout):
+                res = pending.result
+                if res is None:
+                    raise NotConnected(f"{self.name}: closed while waiting for {name}")
+                if isinstance(res, Nack):
+                    raise CommandFailed(name, res.error)
+                return pending.replies
+            with self._pending_lock:
+                if pending in self._pending:
+                    self._pending.remove(pending)
+            if attempt < retries:
+                self._counters.command_retries += 1
+                log.debug("%s: no answer to %s, retrying", self.name, name)
+        raise CommandTimeout(f"{self.name}: no answer to {name} within {timeout:.2f} s "
+                             f"({retries + 1} attempts)")
+
+    def _write(self, data: bytes) -> None:
+        stream = self._stream
+        if stream is None:
+            raise TransportError("not open")
+        with self._write_lock:
+            stream.write(data)
+
+    def _fail_pending(self) -> None:
+        with self._pending_lock:
+            for p in self._pending:
+                p.done.set()
+            self._pending.clear()
+
+    # --- reader thread --------------------------------------------------------------------
+
+    def _read_loop(self) -> None:
+        while not self._closing.is_set():
+            stream = self._stream
+            if stream is None:
+                self._reconnect()
+                continue
+            try:
+                data = stream.read(4096, timeout=0.02)
+            except TransportError as e:
+                if self._closing.is_set():
+                    return
+                log.warning("%s: lost the device (%s); reconnecting", self.name, e)
+                self._lost()
+                continue
+            if data:
+                self._handle_bytes(data, time.monotonic())
+
+    def _lost(self) -> None:
+        self._connected.clear()
+        self._status = "reconnecting"
+        stream, self._stream = self._stream, None
+        if stream:
+            stream.close()
+        self._fail_pending()
+        if not self.reconnect:
+            self._status = "closed"
+            self._closing.set()
+            with self._cond:
+                self._cond.notify_all()
+
+    def _reconnect(self) -> None:
+        while not self._closing.is_set():
+            try:
+                self._connect_once()
+            except (TransportError, LookupError, OSError) as e:
+                log.debug("%s: reconnect failed: %s", self.name, e)
+                self._closing.wait(0.05)
+                continue
+            self._counters.reconnects += 1
+            self._status = "connected"
+            self._restore_needed.set()
+            log.info("%s: reconnected on %s", self.name, self.port)
+            return
+
+    def _handle_bytes(self, data: bytes, arrival: float) -> None:
+        for msg in self._decoder.feed(data):
+            if isinstance(msg, Sample):
+                self._on_sample(msg, arrival)
+            elif isinstance(msg, (Ack, Nack)):
+                self._on_answer(msg)
+            elif isinstance(msg, (Info, ForeignInfo)):
+                self._on_info(msg)
+            elif isinstance(msg, Stats):
+                self._device_stats = msg
+                self._attach(msg, GetStats)
+            elif isinstance(msg, Log):
+                self._counters.log_lines += 1
+                log.log(10 + 10 * min(msg.level, 3), "%s device: %s", self.name, msg.text)
+
+    def _on_sample(self, msg: Sample, arrival: float) -> None:
+        d = self.clock.observe(msg.timestamp_us, arrival)
+        frame = Frame(msg.seq, d, self.clock.to_host(d), arrival, msg.values,
+                      msg.timeout_mask, msg.saturation_mask)
+        with self._cond:
+            if len(self._queue) == self._queue.maxlen:
+                self._counters.overruns += 1
+            self._queue.append(frame)
+            self._cond.notify()
+        for cb in self._callbacks:
+            try:
+                cb(frame)
+            except Exception:  # a user callback must not kill the reader
+                self._counters.callback_errors += 1
+                log.exception("%s: frame callback failed", self.name)
+
+    def _on_answer(self, msg: Ack | Nack) -> None:
+        with self._pending_lock:
+            for p in self._pending:
+                if p.command.request_id == msg.request_id:
+                    self._pending.remove(p)
+                    p.result = msg
+                    p.done.set()
+                    return
+        log.debug("%s: answer to an unknown request %d", self.name, msg.request_id)
+
+    def _attach(self, msg, command_type: type) -> None:
+        """INFO/STATS answers precede their ACK: give them to the oldest matching request."""
+        with self._pending_lock:
+            for p in self._pending:
+                if isinstance(p.command, command_type):
+                    p.replies.append(msg)
+                    return
+
+    def _on_info(self, msg: Info | ForeignInfo) -> None:
+        if isinstance(msg, Info) and msg.is_boot:
+            if self._info is not None:
+                self._counters.device_resets += 1
+                log.warning("%s: the device reset (cause 0x%02X); restoring its set-up",
+                            self.name, msg.reset_cause)
+                self.clock.reset()
+                self._restore_needed.set()
+            return
+        self._attach(msg, GetInfo)
+
+    # --- restoring the set-up after a reconnect or reset ----------------------------------
+
+    def _restore_loop(self) -> None:
+        while True:
+            self._restore_needed.wait()
+            if self._closing.is_set():
+                return
+            self._restore_needed.clear()
+            try:
+                self._restore()
+            except (FingertipError, TransportError) as e:
+                if self._closing.is_set():
+                    return
+                log.warning("%s: restoring the set-up failed (%s); will retry", self.name, e)
+                self._closing.wait(0.1)
+                self._restore_needed.set()
+
+    def _restore(self) -> None:
+        want = self.settings
+        info = self._handshake(self.open_timeout)
+        if (info.rate_sps, info.decimation) != (want.rate_sps, want.decimation):
+            self._command(SetRate(0, want.rate_sps, want.decimation))
+        if info.gain != want.gain:
+            self._command(SetGain(0, want.gain))
+        if want.offsets and any(want.offsets) and info.tare_offsets != want.offsets:
+            padded = tuple(want.offsets) + (0,) * (MAX_CHANNELS - len(want.offsets))
+            self._command(SetTareOffsets(0, (1 << len(want.offsets)) - 1, padded))
+        if want.streaming and not info.streaming:
+            self._command(Start())
+        log.info("%s: set-up restored", self.name)

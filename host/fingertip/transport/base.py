@@ -1,0 +1,28 @@
+"""The small interface every byte transport implements (a serial port, a pty, a file)."""
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+
+class TransportError(IOError):
+    """The transport failed (port vanished, permission denied, ...)."""
+
+
+class TransportClosed(TransportError):
+    """The transport was closed, by us or because the device went away."""
+
+
+@runtime_checkable
+class ByteStream(Protocol):
+    """A bidirectional byte stream. ``read`` returns b"" on timeout, raises on loss."""
+
+    name: str
+
+    def read(self, max_bytes: int = 4096, timeout: float = 0.05) -> bytes: ...
+
+    def write(self, data: bytes) -> None: ...
+
+    def close(self) -> None: ...
+
+    @property
+    def is_open(self) -> bool: ...

@@ -1,0 +1,73 @@
+"""A serial port (USB CDC, FTDI, or a pseudo-terminal) as a :class:`ByteStream`."""
+from __future__ import annotations
+
+import logging
+import os
+
+import serial
+
+from .base import TransportClosed, TransportError
+
+log = logging.getLogger(__name__)
+
+DEFAULT_BAUD = 115200
+
+
+class SerialStream:
+    """pyserial underneath; every pyserial or OS error becomes a :class:`TransportError`."""
+
+    def __init__(self, port: str, baudrate: int = DEFAULT_BAUD) -> None:
+        self.name = port
+        self.baudrate = baudrate
+        try:
+            # exclusive: a second bridge on the same fingertip would steal half its bytes.
+            self._ser = serial.Serial(port, baudrate, timeout=0.05, write_timeout=1.0,
+                                      exclusive=True)
+        except (serial.SerialException, OSError, ValueError) as e:
+            raise TransportError(_explain(port, e)) from e
+
+    @property
+    def is_open(self) -> bool:
+        return self._ser.is_open
+
+    def read(self, max_bytes: int = 4096, timeout: float = 0.05) -> bytes:
+        if not self._ser.is_open:
+            raise TransportClosed(f"{self.name} is closed")
+        try:
+            if self._ser.timeout != timeout:
+                self._ser.timeout = timeout
+            waiting = self._ser.in_waiting
+            return self._ser.read(min(max(waiting, 1), max_bytes))
+        except (serial.SerialException, OSError, TypeError, AttributeError) as e:
+            # TypeError/AttributeError: pyserial after the fd vanished under it.
+            raise TransportClosed(f"{self.name}: {e}") from e
+
+    def write(self, data: bytes) -> None:
+        if not self._ser.is_open:
+            raise TransportClosed(f"{self.name} is closed")
+        try:
+            self._ser.write(data)
+        except (serial.SerialException, OSError) as e:
+            raise TransportClosed(f"{self.name}: {e}") from e
+
+    def close(self) -> None:
+        try:
+            self._ser.close()
+        except (serial.SerialException, OSError) as e:  # already gone: nothing to release
+            log.debug("closing %s: %s", self.name, e)
+
+
+def _explain(port: str, e: Exception) -> str:
+    if not os.path.exists(port):
+        return (f"serial port {port} does not exist: is the fingertip plugged in? "
+                f"`fingertip devices` lists the ports found")
+    if isinstance(e, OSError) and e.errno == 13 or "Permission denied" in str(e):
+        return (f"no permission to open {port}: add yourself to the 'dialout' group "
+                f"(sudo usermod -aG dialout $USER, then log in again)")
+    if "exclusively lock" in str(e) or "busy" in str(e).lower():
+        return f"{port} is in use by another program (another bridge, a serial monitor?)"
+    return f"cannot open {port}: {e}"
+
+
+def open_serial(port: str, baudrate: int = DEFAULT_BAUD) -> SerialStream:
+    return SerialStream(port, baudrate)
