@@ -20,7 +20,10 @@ APT_PYTHON := python3 python3-venv
 APT_FIRMWARE := gcc-avr avr-libc arduino-core-avr binutils-avr avrdude
 APT_NATIVE_TESTS := doctest-dev nlohmann-json3-dev
 APT_SIM := simavr libsimavr-dev libelf-dev
-APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM)
+# PortAudio for sounddevice; a private PulseAudio server with a null sink for audio tests.
+APT_AUDIO := libportaudio2 pulseaudio pulseaudio-utils libasound2-plugins
+APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM) \
+                $(APT_AUDIO)
 
 PYTEST_ARGS ?=
 
