@@ -10,9 +10,10 @@ __version__ = "0.1.0"
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 from .device import (  # noqa: E402  (after the version, which submodules may read)
-    BridgeStats, CommandFailed, CommandTimeout, Fingertip, FingertipError, Frame, NotConnected,
+    BridgeStats, CommandFailed, CommandTimeout, FingerFrame, Fingertip, FingertipError, Frame,
+    Hand, NotConnected,
 )
 from .protocol import ProtocolVersionError  # noqa: E402
 
-__all__ = ["BridgeStats", "CommandFailed", "CommandTimeout", "Fingertip", "FingertipError",
-           "Frame", "NotConnected", "ProtocolVersionError", "__version__"]
+__all__ = ["BridgeStats", "CommandFailed", "CommandTimeout", "FingerFrame", "Fingertip",
+           "FingertipError", "Frame", "Hand", "NotConnected", "ProtocolVersionError", "__version__"]

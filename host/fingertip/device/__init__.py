@@ -3,7 +3,9 @@ from .fingertip import (
     BridgeStats, CommandFailed, CommandTimeout, Fingertip, FingertipError, Frame, NotConnected,
     Settings,
 )
+from .hand import FingerFrame, Hand
 from .timesync import ClockFit, ClockSync, Unwrapper
 
 __all__ = ["BridgeStats", "ClockFit", "ClockSync", "CommandFailed", "CommandTimeout",
-           "Fingertip", "FingertipError", "Frame", "NotConnected", "Settings", "Unwrapper"]
+           "FingerFrame", "Fingertip", "FingertipError", "Frame", "Hand", "NotConnected",
+           "Settings", "Unwrapper"]

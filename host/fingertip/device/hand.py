@@ -1,0 +1,165 @@
+"""``Hand``: several fingertips under finger names.
+
+Either one device per finger (four Unos, four sound cards), or one 16-channel device whose
+channels are split into fingers. User code sees the same thing both ways: frames tagged with
+the finger they belong to, holding only that finger's channels.
+"""
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, replace
+
+from .fingertip import Fingertip, Frame
+
+
+@dataclass(frozen=True, slots=True)
+class FingerFrame:
+    finger: str
+    frame: Frame
+
+
+class Hand:
+    """Fingertips by finger name. ``fingers`` maps a name to a :class:`Fingertip`, or to
+    ``(fingertip, channels)`` when several fingers share one device."""
+
+    def __init__(self, fingers: Mapping[str, Fingertip | tuple[Fingertip, Sequence[int]]],
+                 queue_size: int = 16384) -> None:
+        if not fingers:
+            raise ValueError("a hand needs at least one finger")
+        self._fingers: dict[str, tuple[Fingertip, tuple[int, ...] | None]] = {}
+        for name, spec in fingers.items():
+            if isinstance(spec, Fingertip):
+                self._fingers[name] = (spec, None)
+            else:
+                dev, chans = spec
+                self._fingers[name] = (dev, tuple(chans))
+        self._devices: list[Fingertip] = []
+        for dev, _ in self._fingers.values():
+            if dev not in self._devices:
+                self._devices.append(dev)
+        self._queue: deque[FingerFrame] = deque(maxlen=queue_size)
+        self._cond = threading.Condition()
+        self._latest: dict[str, Frame] = {}
+        self.overruns = 0
+        for dev in self._devices:
+            dev.add_callback(self._make_callback(dev))
+
+    @classmethod
+    def from_ports(cls, ports: Mapping[str, str], **kw) -> Hand:
+        """One device per finger, by port: ``Hand.from_ports({"index": "/dev/ttyACM0"})``."""
+        return cls({name: Fingertip(port, name=name, **kw) for name, port in ports.items()})
+
+    @classmethod
+    def from_serial_numbers(cls, serials: Mapping[str, str], **kw) -> Hand:
+        """One device per finger, by the USB serial number of each Arduino."""
+        return cls({name: Fingertip(serial_number=sn, name=name, **kw)
+                    for name, sn in serials.items()})
+
+    @classmethod
+    def split(cls, device: Fingertip, groups: Mapping[str, Sequence[int]]) -> Hand:
+        """One multi-channel device whose channels are split into fingers."""
+        return cls({name: (device, chans) for name, chans in groups.items()})
+
+    @property
+    def fingers(self) -> list[str]:
+        return list(self._fingers)
+
+    def device(self, finger: str) -> Fingertip:
+        return self._fingers[finger][0]
+
+    def _make_callback(self, dev: Fingertip):
+        targets = [(name, chans) for name, (d, chans) in self._fingers.items() if d is dev]
+
+        def on_frame(frame: Frame) -> None:
+            with self._cond:
+                for name, chans in targets:
+                    f = frame if chans is None else _select(frame, chans)
+                    if len(self._queue) == self._queue.maxlen:
+                        self.overruns += 1
+                    self._queue.append(FingerFrame(name, f))
+                    self._latest[name] = f
+                self._cond.notify_all()
+
+        return on_frame
+
+    # --- life cycle and commands for all fingers ------------------------------------------
+
+    def open(self) -> Hand:
+        opened = []
+        try:
+            for dev in self._devices:
+                dev.open()
+                opened.append(dev)
+        except BaseException:
+            for dev in opened:
+                dev.close()
+            raise
+        return self
+
+    def close(self) -> None:
+        for dev in self._devices:
+            dev.close()
+
+    def __enter__(self) -> Hand:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def start(self) -> None:
+        for dev in self._devices:
+            dev.start()
+
+    def stop(self) -> None:
+        for dev in self._devices:
+            dev.stop()
+
+    def tare(self, samples: int = 16) -> None:
+        # Taring all devices in parallel: each waits samples/rate seconds on its own.
+        errors: list[BaseException] = []
+
+        def one(dev: Fingertip) -> None:
+            try:
+                dev.tare(samples=samples)
+            except BaseException as e:  # re-raised below, in the caller's thread
+                errors.append(e)
+
+        threads = [threading.Thread(target=one, args=(d,)) for d in self._devices]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        if errors:
+            raise errors[0]
+
+    @property
+    def status(self) -> dict[str, str]:
+        return {name: d.status for name, (d, _) in self._fingers.items()}
+
+    # --- frames ---------------------------------------------------------------------------
+
+    def latest(self) -> dict[str, Frame]:
+        """The newest frame of each finger seen so far."""
+        with self._cond:
+            return dict(self._latest)
+
+    def read(self, timeout: float | None = None) -> FingerFrame | None:
+        with self._cond:
+            if not self._queue:
+                self._cond.wait(timeout)
+            return self._queue.popleft() if self._queue else None
+
+    def frames(self, timeout: float | None = None) -> Iterator[FingerFrame]:
+        while (f := self.read(timeout)) is not None:
+            yield f
+
+
+def _select(frame: Frame, chans: tuple[int, ...]) -> Frame:
+    def bits(mask: int) -> int:
+        return sum(1 << i for i, c in enumerate(chans) if mask >> c & 1)
+
+    return replace(frame, counts=tuple(frame.counts[c] for c in chans),
+                   timeout_mask=bits(frame.timeout_mask),
+                   saturation_mask=bits(frame.saturation_mask))
