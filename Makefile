@@ -68,7 +68,14 @@ test-native: system-packages
 	$(MAKE) --no-print-directory -C firmware test-native
 
 firmware: system-packages
-	$(MAKE) --no-print-directory -C firmware avr-check
+	$(MAKE) --no-print-directory -C firmware all
+
+# make flash PORT=/dev/ttyACM0 [CHANNELS=4|16]: build, then upload with avrdude.
+.PHONY: flash
+flash:
+	@test -n "$(PORT)" || { echo "usage: make flash PORT=/dev/ttyACM0 [CHANNELS=4|16]" >&2; exit 2; }
+	$(MAKE) --no-print-directory firmware venv
+	$(VENV)/bin/fingertip flash --port "$(PORT)" --channels "$(or $(CHANNELS),4)"
 
 lint: venv
 	$(VENV)/bin/ruff check host tests

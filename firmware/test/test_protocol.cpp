@@ -2,8 +2,7 @@
 // (tests/vectors/protocol_v1.json) plus cases of our own.
 //
 // Vector file: $FTP_VECTORS if set, else FTP_VECTORS_PATH given by the Makefile.
-#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
-#include <doctest/doctest.h>
+#include "doctest_setup.h"  // doctest with its main (or PlatformIO's)
 
 #include <cstdlib>
 #include <fstream>

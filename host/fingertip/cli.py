@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from . import __version__
+from .flash import FlashError, flash
 from .protocol import (
     PROTOCOL_MAJOR,
     PROTOCOL_MINOR,
@@ -49,6 +50,26 @@ def _cmd_decode(args: argparse.Namespace) -> int:
     return 0 if dec.stats.errors_total == 0 else 1
 
 
+def _cmd_flash(args: argparse.Namespace) -> int:
+    """Upload the firmware to an Arduino Uno with avrdude (builds the HEX if it is missing)."""
+    if not args.port and not args.dry_run:
+        log.error("no serial port: pass --port (e.g. /dev/ttyACM0), or --dry-run")
+        return 2
+    try:
+        r = flash(args.port, args.channels, args.hex, dry_run=args.dry_run, baud=args.baud)
+    except FlashError as e:
+        log.error("%s", e)
+        return e.code
+    if not r.ran:
+        print(f"dry run: {r.hex_path} holds {r.hex_bytes} bytes; avrdude has no dryrun "
+              f"programmer, so it was not run. The upload would run:\n  {' '.join(r.argv)}")
+        return 0
+    what = "dry run" if args.dry_run else f"flashed {args.port}"
+    print(f"{what}: {r.hex_path}, {r.bytes_written if r.bytes_written is not None else '?'} "
+          f"bytes written, {r.bytes_verified if r.bytes_verified is not None else '?'} verified")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fingertip",
@@ -67,6 +88,19 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--json", action="store_true", help="one JSON object per message")
     d.add_argument("--limit", type=int, default=None, help="print at most N messages")
     d.set_defaults(func=_cmd_decode)
+
+    f = sub.add_parser("flash", help="upload the firmware to an Arduino Uno with avrdude",
+                       description=_cmd_flash.__doc__)
+    f.add_argument("--port", help="serial port of the Uno, e.g. /dev/ttyACM0")
+    f.add_argument("--channels", type=int, choices=(4, 16), default=4,
+                   help="firmware build: 4 channels (one fingertip, default) or 16")
+    f.add_argument("--hex", help="HEX file to upload (default: the build of --channels in "
+                                 "firmware/build, made with `make -C firmware all` if missing)")
+    f.add_argument("--baud", type=int, default=115200,
+                   help="bootloader baud rate (default: 115200, the Uno's optiboot)")
+    f.add_argument("--dry-run", action="store_true",
+                   help="run avrdude with its 'dryrun' programmer: nothing is written")
+    f.set_defaults(func=_cmd_flash)
     return p
 
 
