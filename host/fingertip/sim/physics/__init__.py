@@ -1,0 +1,44 @@
+"""Physics of the virtual fingertip: strain-gauge forces and contact-microphone vibrations.
+
+- :mod:`.params`: the mechanical and electrical parameters (``fingertip.toml``, shared with
+  the CAD) as frozen dataclasses.
+- :mod:`.strain`: cantilever prism -> gauge strain -> quarter bridge -> HX711 counts, with
+  per-unit variation, cross-talk, hysteresis, creep, temperature drift, noise, saturation.
+- :mod:`.vibration`, :mod:`.materials`: dynamic force at the nail -> cap modes -> piezo ->
+  preamp (gain, clipping, hum, noise) -> sound-card samples.
+- :mod:`.scenes`, :mod:`.simulate`: scenes declare the signals they need; only those are
+  computed. :mod:`.calibration`: the paper's calibration sweep. :mod:`.bench`: cost.
+
+Imports numpy and the standard library only. See docs/simulation.md.
+"""
+from .calibration import COLUMNS, Sweep, calibration_sweep
+from .materials import MATERIALS, PAPER_SEVEN, Material, material
+from .params import FingertipParams, load, params_path
+from .scenes import (
+    BOX_CONTENTS,
+    FORCE,
+    SIGNALS,
+    VIBRATION,
+    BoxShake,
+    ContactMakeBreak,
+    CupStackSlide,
+    CustomForce,
+    Forces,
+    Idle,
+    Press,
+    Scene,
+    Script,
+    Slide,
+)
+from .simulate import AudioTrace, ForceTrace, SimResult, simulate
+from .strain import Effects, UnitVariation, VirtualStrainSensor, cap_deflection_m
+from .vibration import AudioChain, Excitation
+
+__all__ = [
+    "BOX_CONTENTS", "COLUMNS", "FORCE", "MATERIALS", "PAPER_SEVEN", "SIGNALS", "VIBRATION",
+    "AudioChain", "AudioTrace", "BoxShake", "ContactMakeBreak", "CupStackSlide", "CustomForce",
+    "Effects", "Excitation", "FingertipParams", "ForceTrace", "Forces", "Idle", "Material",
+    "Press", "Scene", "Script", "SimResult", "Slide", "Sweep", "UnitVariation",
+    "VirtualStrainSensor", "calibration_sweep", "cap_deflection_m", "load", "material",
+    "params_path", "simulate",
+]

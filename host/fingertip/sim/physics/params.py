@@ -1,0 +1,338 @@
+"""The fingertip's parameters: ``fingertip.toml`` (shipped in this package) as frozen dataclasses.
+
+The TOML file is the one source of truth for the mechanical and electrical parameters; the CAD
+reads the same file. Field names equal the TOML keys (units in the names); SI values that the
+models need are derived properties. Unknown or missing keys are errors, so the file and the
+code cannot drift apart silently.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the same parser as the tomli package
+    import tomli as tomllib  # type: ignore[no-redef]
+
+PARAMS_FILE = "fingertip.toml"
+SCHEMA = 1
+
+
+def params_path() -> Path:
+    """Path of the shipped TOML file (for tools such as the CAD that read it directly)."""
+    return Path(str(resources.files(__package__).joinpath(PARAMS_FILE)))
+
+
+@dataclass(frozen=True)
+class Geometry:
+    outer_width_mm: float
+    outer_height_mm: float
+    base_height_mm: float
+    prism_side_mm: float
+    prism_core_side_mm: float
+    prism_length_mm: float
+    cap_roof_mm: float
+    cap_gap_mm: float
+    skin_mm: float
+    nail_proud_mm: float
+    nail_tip_z_mm: float
+    gauge_center_z_mm: float
+
+    @property
+    def cap_wall_mm(self) -> float:
+        """Cap wall thickness left by the envelope, the skin, the gap and the prism."""
+        return (self.outer_width_mm - 2 * self.skin_mm - 2 * self.cap_gap_mm
+                - self.prism_side_mm) / 2
+
+    def lever_m(self, contact_height_mm: float = 0.0) -> float:
+        """Distance from the gauge centre to a contact ``contact_height_mm`` below the nail."""
+        return (self.nail_tip_z_mm - contact_height_mm - self.gauge_center_z_mm) * 1e-3
+
+
+@dataclass(frozen=True)
+class Materials:
+    pla_modulus_gpa: float
+    pla_poisson: float
+    pla_cte_per_k: float
+    tpu_modulus_mpa: float
+    tpu_poisson: float
+
+
+@dataclass(frozen=True)
+class Base:
+    rotational_stiffness_nm_per_rad: float
+    moment_shunt: float
+    moment_shunt_threefold: float
+    moment_shunt_per_newton: float
+
+
+@dataclass(frozen=True)
+class Gauge:
+    model: str
+    resistance_ohm: float
+    grid_length_mm: float
+    grid_width_mm: float
+    backing_length_mm: float
+    backing_width_mm: float
+    gauge_factor: float
+    transverse_sensitivity: float
+    glue_transfer: float
+    self_compensation_cte_per_k: float
+    gauge_factor_tc_per_k: float
+
+
+@dataclass(frozen=True)
+class Bridge:
+    configuration: str
+    completion_ohm: float
+    completion_tolerance: float
+    lead_resistance_ohm: float
+
+
+@dataclass(frozen=True)
+class HX711:
+    avdd_v: float
+    excitation_v: float
+    gain: int
+    bits: int
+    full_scale_fraction_of_avdd: float
+    noise_nv_rms_10sps: float
+    noise_nv_rms_80sps: float
+    rates_sps: tuple[int, ...]
+    paper_stream_hz: float
+
+    @property
+    def full_scale_v(self) -> float:
+        """Full-scale differential input at this gain: +-0.5 * AVDD / gain."""
+        return self.full_scale_fraction_of_avdd * self.avdd_v / self.gain
+
+    @property
+    def counts_per_volt(self) -> float:
+        return 2 ** (self.bits - 1) / self.full_scale_v
+
+    @property
+    def count_max(self) -> int:
+        return 2 ** (self.bits - 1) - 1
+
+    @property
+    def count_min(self) -> int:
+        return -(2 ** (self.bits - 1))
+
+    def noise_v_rms(self, rate_sps: int) -> float:
+        if rate_sps not in self.rates_sps:
+            raise ValueError(f"HX711 rate must be one of {self.rates_sps}, not {rate_sps}")
+        return (self.noise_nv_rms_10sps if rate_sps == 10 else self.noise_nv_rms_80sps) * 1e-9
+
+
+@dataclass(frozen=True)
+class Variation:
+    gauge_angle_deg: float
+    gauge_z_mm: float
+    gauge_lateral_mm: float
+    gauge_factor_rel: float
+    glue_transfer: float
+    modulus_rel: float
+    prism_side_mm: float
+    gauge_resistance_rel: float
+    completion_rel: float
+    glue_prestrain_mean_ue: float
+    glue_prestrain_ue: float
+    hx711_offset_uv: float
+    moment_shunt: float
+    hysteresis_rel: float
+    creep_rel: float
+    creep_tau_rel: float
+    apparent_strain_ue_per_k: float
+    span_tc_per_k: float
+    noise_rel: float
+
+
+@dataclass(frozen=True)
+class Hysteresis:
+    operators: int
+    radius_max_ue: float
+    gain: float
+
+
+@dataclass(frozen=True)
+class Creep:
+    fraction: float
+    tau_s: float
+
+
+@dataclass(frozen=True)
+class Thermal:
+    reference_c: float
+    span_tc_per_k: float
+
+
+@dataclass(frozen=True)
+class Piezo:
+    diameter_mm: float
+    thickness_mm: float
+    capacitance_nf: float
+    sensitivity_v_per_n: float
+
+
+@dataclass(frozen=True)
+class Preamp:
+    input_resistance_mohm: float
+    gain: float
+    noise_nv_per_rthz: float
+    rail_v: float
+
+
+@dataclass(frozen=True)
+class SoundCard:
+    sample_rate_hz: int
+    full_scale_v: float
+    bits: int
+    noise_dbfs_rms: float
+    antialias_hz: float
+
+
+@dataclass(frozen=True)
+class CapModes:
+    frequency_hz: tuple[float, ...]
+    damping: tuple[float, ...]
+    weight: tuple[float, ...]
+    direct: float
+
+
+@dataclass(frozen=True)
+class Mains:
+    frequency_hz: float
+    harmonics: tuple[int, ...]
+    amplitude_uv_rms: tuple[float, ...]
+
+
+_SECTIONS: dict[str, type] = {
+    "geometry": Geometry, "materials": Materials, "base": Base, "gauge": Gauge,
+    "bridge": Bridge, "hx711": HX711, "variation": Variation, "hysteresis": Hysteresis,
+    "creep": Creep, "thermal": Thermal, "piezo": Piezo, "preamp": Preamp,
+    "soundcard": SoundCard, "cap_modes": CapModes, "mains": Mains,
+}
+
+
+@dataclass(frozen=True)
+class FingertipParams:
+    geometry: Geometry
+    materials: Materials
+    base: Base
+    gauge: Gauge
+    bridge: Bridge
+    hx711: HX711
+    variation: Variation
+    hysteresis: Hysteresis
+    creep: Creep
+    thermal: Thermal
+    piezo: Piezo
+    preamp: Preamp
+    soundcard: SoundCard
+    cap_modes: CapModes
+    mains: Mains
+
+    # --- derived mechanics (SI) -----------------------------------------------------------
+
+    @property
+    def modulus_pa(self) -> float:
+        return self.materials.pla_modulus_gpa * 1e9
+
+    @property
+    def flexural_rigidity_nm2(self) -> float:
+        """EI of the (possibly composite) square section: PLA core + TPU shell."""
+        return section_rigidity(self.geometry.prism_side_mm * 1e-3,
+                                self.geometry.prism_core_side_mm * 1e-3, self.modulus_pa,
+                                self.materials.tpu_modulus_mpa * 1e6)
+
+    @property
+    def strain_per_newton(self) -> float:
+        """Nominal surface strain per newton at the gauge, contact at the nail tip."""
+        c = self.geometry.prism_side_mm * 1e-3 / 2
+        return self.geometry.lever_m(0.0) * c / self.flexural_rigidity_nm2
+
+    @property
+    def counts_per_strain(self) -> float:
+        """Small-signal HX711 counts per unit strain (quarter bridge, nominal gauge)."""
+        h = self.hx711
+        return h.excitation_v * self.gauge.gauge_factor / 4 * h.counts_per_volt
+
+    def replace(self, **sections: dict[str, Any]) -> FingertipParams:
+        """A copy with some fields changed: ``p.replace(hysteresis={"gain": 0.0})``."""
+        changes = {}
+        for name, values in sections.items():
+            changes[name] = dataclasses.replace(getattr(self, name), **values)
+        return dataclasses.replace(self, **changes)
+
+
+def section_rigidity(side_m: float, core_side_m: float, e_core: float, e_shell: float) -> float:
+    """EI of a square section (side ``side_m``) with a square core of a stiffer material."""
+    i_out, i_core = side_m ** 4 / 12, core_side_m ** 4 / 12
+    return e_core * i_core + e_shell * (i_out - i_core)
+
+
+def _build(cls: type, table: dict[str, Any], where: str) -> Any:
+    names = {f.name for f in fields(cls)}
+    unknown, missing = set(table) - names, names - set(table)
+    if unknown or missing:
+        raise ValueError(f"{where}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in table.items()}
+    return cls(**values)
+
+
+def from_dict(data: dict[str, Any], where: str = PARAMS_FILE) -> FingertipParams:
+    if data.get("schema") != SCHEMA:
+        raise ValueError(f"{where}: schema {data.get('schema')!r}, expected {SCHEMA}")
+    tables = {k: v for k, v in data.items() if k != "schema"}
+    unknown = set(tables) - set(_SECTIONS)
+    missing = set(_SECTIONS) - set(tables)
+    if unknown or missing:
+        raise ValueError(f"{where}: unknown tables {sorted(unknown)}, "
+                         f"missing tables {sorted(missing)}")
+    p = FingertipParams(**{k: _build(cls, tables[k], f"{where} [{k}]")
+                           for k, cls in _SECTIONS.items()})
+    _check(p, where)
+    return p
+
+
+def _check(p: FingertipParams, where: str) -> None:
+    g = p.geometry
+    problems = []
+    if g.cap_wall_mm <= 0:
+        problems.append(f"no room for the cap wall ({g.cap_wall_mm:.2f} mm)")
+    if not 0 < g.prism_core_side_mm <= g.prism_side_mm:
+        problems.append("prism_core_side_mm must be in (0, prism_side_mm]")
+    if p.gauge.backing_width_mm > g.prism_side_mm:
+        problems.append("the gauge backing is wider than the prism face")
+    if g.gauge_center_z_mm - p.gauge.backing_length_mm / 2 < 0:
+        problems.append("the gauge backing runs past the prism root")
+    if not g.gauge_center_z_mm < g.prism_length_mm <= g.nail_tip_z_mm:
+        problems.append("need gauge_center_z_mm < prism_length_mm <= nail_tip_z_mm")
+    n = len(p.cap_modes.frequency_hz)
+    if len(p.cap_modes.damping) != n or len(p.cap_modes.weight) != n:
+        problems.append("cap_modes lists differ in length")
+    if len(p.mains.harmonics) != len(p.mains.amplitude_uv_rms):
+        problems.append("mains harmonics and amplitudes differ in length")
+    if p.bridge.configuration != "quarter":
+        problems.append("only the quarter bridge is modelled")
+    if problems:
+        raise ValueError(f"{where}: " + "; ".join(problems))
+
+
+def load(path: str | Path | None = None) -> FingertipParams:
+    """Read the parameters (the shipped file when ``path`` is None; cached then)."""
+    if path is None:
+        return _default()
+    path = Path(path)
+    return from_dict(tomllib.loads(path.read_text(encoding="utf-8")), str(path))
+
+
+@lru_cache(maxsize=1)
+def _default() -> FingertipParams:
+    text = resources.files(__package__).joinpath(PARAMS_FILE).read_text(encoding="utf-8")
+    return from_dict(tomllib.loads(text))
