@@ -280,13 +280,16 @@ def test_each_unit_needs_its_own_calibration():
 
 def test_feeds_the_virtual_firmware():
     scene = Press(angle_deg=90.0, peak_n=3.0, ramp_s=0.5, hold_s=0.2, pre_s=0.1, post_s=0.2)
-    fw = VirtualFirmware(4, source=VirtualStrainSensor(3).as_source(scene))
+    # The chips' first conversion comes 4 periods after power-up: start the scene 3 periods
+    # in, so that the firmware's first read is the scene's first sample.
+    t0 = 3 * 12_500
+    fw = VirtualFirmware(4, source=VirtualStrainSensor(3).as_source(scene, t0_us=t0))
     fw.boot()
     dec = StreamDecoder("device")
     dec.feed(fw.receive(encode(Start(1))))
-    samples = [m for m in dec.feed(fw.advance(int(scene.duration_s * 1e6)))
+    samples = [m for m in dec.feed(fw.advance(t0 + int(scene.duration_s * 1e6)))
                if isinstance(m, Sample)]
-    direct = simulate(scene, seed=3).force                  # same unit, same noise stream
+    direct = simulate(scene, seed=3, t0_us=t0).force        # same unit, same noise stream
     assert len(samples) == len(direct.t_us)
     np.testing.assert_array_equal([m.timestamp_us for m in samples], direct.t_us)
     np.testing.assert_array_equal([m.values for m in samples], direct.counts)

@@ -63,14 +63,17 @@ def test_streaming_rate_decimation_and_stats():
     out = run(dev, Start(1), until_us=2_000_000)
     samples = [m for m in out if isinstance(m, Sample)]
     stats = [m for m in out if isinstance(m, Stats)]
-    assert len(samples) == 160 and len(stats) == 2
-    assert samples[0].timestamp_us == 12_500
+    # The chips settle for 4 periods after power-up: the first sample is at 50 ms.
+    assert len(samples) == 160 - 3 and len(stats) == 2
+    assert samples[0].timestamp_us == 50_000
     assert samples[0].saturation_mask == 0b1100
     assert samples[0].values[2:] == ((1 << 23) - 1, -(1 << 23))
     run(dev, SetRate(2, 10, 5))
     out = run(dev, until_us=7_000_000)
     samples = [m for m in out if isinstance(m, Sample)]
-    assert len(samples) == 10  # 10 SPS, every 5th conversion, 5 s
+    # 10 SPS after 4 periods (400 ms) of settling, every 5th conversion, for 5 s.
+    assert len(samples) == 9
+    assert samples[1].timestamp_us - samples[0].timestamp_us == 500_000
 
 
 def test_tare_averages_then_subtracts():
@@ -106,18 +109,40 @@ def test_busy_during_tare_and_gain_change_discards_one_reading():
     assert [m.error for m in out if isinstance(m, Nack)] == [ErrorCode.BUSY, ErrorCode.BUSY]
     dev2 = VirtualFirmware(4, source=lambda t: (1000,) * 4)
     dev2.boot()
-    out = run(dev2, Start(1), SetGain(2, 64), until_us=50_000)
+    out = run(dev2, Start(1), SetGain(2, 64), until_us=100_000)
     samples = [m for m in out if isinstance(m, Sample)]
-    assert len(samples) == 3 and samples[0].values[0] == 500  # first one discarded
+    # Reads at 50, 62.5, 75, 87.5 and 100 ms; the first still had gain 128: discarded.
+    assert len(samples) == 4 and samples[0].values[0] == 500
+    assert samples[0].timestamp_us == 62_500
 
 
 def test_set_tare_offsets_restores_a_calibration():
     dev = VirtualFirmware(4, source=lambda t: (100, 200, 300, 400))
     dev.boot()
     offs = (10, -20, 0, 0) + (0,) * 12
-    out = run(dev, SetTareOffsets(1, 0b0011, offs), Start(2), until_us=20_000)
+    out = run(dev, SetTareOffsets(1, 0b0011, offs), Start(2), until_us=60_000)
     assert isinstance(out[0], Ack)
     sample = [m for m in out if isinstance(m, Sample)][0]
     assert sample.values == (90, 220, 300, 400)
     out = run(dev, SetTareOffsets(3, 0b10000, (0,) * 16))
     assert isinstance(out[0], Nack) and out[0].error == ErrorCode.BAD_ARGUMENT
+
+
+def test_timeouts_follow_the_firmware():
+    """A chip that dies delays one read to the deadline; a revived chip's first reading is
+    discarded; with every chip dead, all-timeout frames come every 1.5 periods."""
+    dev = VirtualFirmware(4, source=lambda t: (1, 2, 3, 4))
+    dev.boot()
+    run(dev, Start(1), until_us=100_000)
+    dev.dead_mask = 0b0010
+    out = [m for m in run(dev, until_us=200_000) if isinstance(m, Sample)]
+    assert out[0].timestamp_us == 100_000 + 18_748  # deadline 1.5 periods later (micros())
+    assert all(m.timeout_mask == 0b0010 for m in out)
+    assert [m.timestamp_us % 12_500 for m in out[1:]] == [0] * len(out[1:])
+    dev.dead_mask = 0
+    out = [m for m in run(dev, until_us=250_000) if isinstance(m, Sample)]
+    assert out[0].timeout_mask == 0b0010 and out[1].timeout_mask == 0  # revived: discarded
+    dev.dead_mask = 0b1111
+    out = [m for m in run(dev, until_us=400_000) if isinstance(m, Sample)]
+    steps = {b.timestamp_us - a.timestamp_us for a, b in zip(out[1:], out[2:], strict=False)}
+    assert steps <= {18_748, 18_752} and all(m.timeout_mask == 0b1111 for m in out)

@@ -22,6 +22,7 @@ from ..protocol import (
     Info,
     InfoReason,
     Log,
+    MsgType,
     LogLevel,
     Nack,
     Ping,
@@ -43,6 +44,8 @@ from ..protocol.messages import STATS_FIELDS
 
 FIRMWARE_VERSION = (0, 1, 0)
 U32 = 1 << 32
+SETTLE_PERIODS = 4  # conversions after power-up or a rate change before data is good
+GAIN_SCALE = {128: 1.0, 64: 0.5, 32: 0.25}  # input counts are given at gain 128
 
 CountsSource = Callable[[int], Sequence[float]]
 """Device time in microseconds -> each chip's input in counts (before clipping)."""
@@ -86,12 +89,18 @@ class VirtualFirmware:
         self.offsets = [0] * self.channels
         self._seq = 0
         self._tare: _Tare | None = None
-        self._next_conversion_us = self.period_us
-        self._conversions = 0
         self._next_stats_us = 1_000_000
-        self._skip_next = False
         self.counters = dict.fromkeys(STATS_FIELDS[1:], 0)
         self._rx.reset()
+        # Chip bookkeeping, as firmware/lib/fingertip_core/device.cpp keeps it.
+        self._next_tick_us = 0       # the chips' next conversion-ready time
+        self._deadline_us = 0        # read anyway (with timeout bits) at this time
+        self._settle_until_us = 0
+        self._settling = False
+        self._chip_gain = 128
+        self._live = (1 << self.channels) - 1  # channels the next read waits for
+        self._stale = 0              # channels back from a timeout: first reading discarded
+        self._dec_count = 0
 
     @property
     def period_us(self) -> int:
@@ -108,7 +117,7 @@ class VirtualFirmware:
         return encode(msg)
 
     def _time(self) -> int:
-        return (self.now_us - self.now_us % 4) % U32  # micros() counts in steps of 4 us
+        return _micros(self.now_us)
 
     def _info(self, reason: int) -> Info:
         mask = sum(1 << i for i, v in enumerate(self.offsets) if v)
@@ -126,8 +135,9 @@ class VirtualFirmware:
         clock at boot (a real one starts at 0; later values test the 32-bit wraparound)."""
         self.reset()
         self.now_us = start_us
-        self._next_conversion_us = start_us + self.period_us
         self._next_stats_us = start_us + 1_000_000
+        self.powered = False
+        self._power(True)
         text = (f"fingertip fw {'.'.join(map(str, FIRMWARE_VERSION))}, "
                 f"{self.channels} channels")
         return (b"\x00" + self._send(self._info(InfoReason.BOOT))
@@ -186,20 +196,21 @@ class VirtualFirmware:
                     self.offsets[i] = cmd.offsets[i]
             return self._send(ack)
         if isinstance(cmd, SetRate):
-            self.rate_sps, self.decimation = cmd.rate_sps, cmd.decimation
-            self._conversions = 0
+            if cmd.rate_sps != self.rate_sps:
+                self.rate_sps = cmd.rate_sps
+                if self.powered:
+                    # The chips restart their conversions at the new rate, and settle.
+                    self._next_tick_us = self.now_us + SETTLE_PERIODS * self.period_us
+                    self._expect_settling(self.now_us)
+            self.decimation = cmd.decimation
+            self._dec_count = 0
             return self._send(ack)
         if isinstance(cmd, SetGain):
-            if cmd.gain != self.gain:
-                self.gain = cmd.gain
-                self._skip_next = True  # that conversion was made with the old gain
+            # The next reading still has the old gain: _read discards it (chip gain differs).
+            self.gain = cmd.gain
             return self._send(ack)
         if isinstance(cmd, SetPower):
-            self.powered = bool(cmd.on)
-            if not self.powered:
-                self.streaming = False
-            else:
-                self._next_conversion_us = self.now_us + 4 * self.period_us  # settling
+            self._power(bool(cmd.on))
             return self._send(ack)
         return self._nack(rid, t, ErrorCode.UNKNOWN_COMMAND)
 
@@ -220,86 +231,142 @@ class VirtualFirmware:
         self._tare = _Tare(rid, cmd.channel_mask, cmd.samples, [0] * self.channels)
         return b""
 
+    # --- chips ----------------------------------------------------------------------------
+
+    def _power(self, on: bool) -> None:
+        if on == self.powered:
+            return
+        self.powered = on
+        if not on:
+            self.streaming = False
+            return
+        # The chips restart at gain 128 and settle for 4 periods before their first
+        # conversion; the first read sets our gain (and is discarded if that differs).
+        self._chip_gain = 128
+        self._live = (1 << self.channels) - 1
+        self._stale = 0
+        self._dec_count = 0
+        self._next_tick_us = self.now_us + SETTLE_PERIODS * self.period_us
+        self._expect_settling(self.now_us)
+
+    def _expect_settling(self, now: int) -> None:
+        period = self.period_us
+        self._settling = True
+        self._settle_until_us = now + SETTLE_PERIODS * period
+        self._deadline_us = self._settle_until_us + period + period // 2
+
     def advance(self, to_us: int) -> bytes:
         """Run device time forward to ``to_us``; return what the device sends meanwhile."""
         out = bytearray()
+        never = to_us + 1
         while True:
-            due = min(self._next_conversion_us if self.powered else to_us + 1,
-                      self._next_stats_us if self.streaming else to_us + 1)
+            tick = self._next_tick_us if self.powered else never
+            deadline = self._deadline_us if self.powered else never
+            stats = self._next_stats_us if self.streaming else never
+            due = min(tick, deadline, stats)
             if due > to_us:
                 break
             self.now_us = due
-            if self.streaming and due == self._next_stats_us:
+            if due == stats:
                 out += self._send(self._stats())
                 self._next_stats_us += 1_000_000
-            if self.powered and due == self._next_conversion_us:
-                out += self._conversion()
-                self._next_conversion_us += self.period_us
+                continue
+            if due == tick:
+                self._next_tick_us += self.period_us
+                alive = self._all_mask & ~self.dead_mask
+                live = self._live
+                go = (alive & live) == live if live else alive != 0
+                if not go:
+                    continue  # wait for the missing chips until the deadline
+            out += self._read(self._all_mask & ~self.dead_mask)
         self.now_us = max(self.now_us, to_us)
         return bytes(out)
 
-    def _read_chips(self) -> tuple[list[int], int, int]:
-        """One parallel read: raw 24-bit readings, timeout mask, saturation mask."""
-        inputs = self.source(self.now_us)
-        scale = {128: 1.0, 64: 0.5, 32: 0.25}[self.gain]
-        raws, tmask, smask = [], 0, 0
+    @property
+    def _all_mask(self) -> int:
+        return (1 << self.channels) - 1
+
+    def _read(self, ready: int) -> bytes:
+        """One parallel read at ``now_us`` of the chips in ``ready`` (device.cpp's
+        processReading)."""
+        stamp = self.now_us
+        period = self.period_us
+        timeouts = self._all_mask & ~ready
+        valid = ready & ~self._stale
+        self._stale = timeouts
+        self._live = valid
+        inputs = self.source(stamp)
+        scale = GAIN_SCALE[self._chip_gain]
+        raws = [0] * self.channels
         for i in range(self.channels):
-            if self.dead_mask >> i & 1:
-                tmask |= 1 << i
+            if timeouts >> i & 1:
                 self.counters["read_timeouts"] += 1
-                raws.append(0)
                 continue
-            raw = max(INT24_MIN, min(INT24_MAX, int(round(inputs[i] * scale))))
-            if raw in (INT24_MIN, INT24_MAX):
-                smask |= 1 << i
+            raws[i] = max(INT24_MIN, min(INT24_MAX, int(round(inputs[i] * scale))))
+            if valid >> i & 1 and raws[i] in (INT24_MIN, INT24_MAX):
                 self.counters["saturations"] += 1
-            raws.append(raw)
-        return raws, tmask, smask
 
-    def _tared(self, raws: list[int], tmask: int, smask: int) -> tuple[list[int], int]:
-        values = []
-        for i, raw in enumerate(raws):
-            if tmask >> i & 1:
-                values.append(0)
-                continue
-            v = raw - self.offsets[i]
-            if not INT24_MIN <= v <= INT24_MAX:
-                v = max(INT24_MIN, min(INT24_MAX, v))
-                smask |= 1 << i
-            values.append(v)
-        return values, smask
+        discard = False
+        if ready and self._chip_gain != self.gain:
+            discard = True
+            self._chip_gain = self.gain
+            self._settling = True
+            self._settle_until_us = stamp + SETTLE_PERIODS * period
+        self._deadline_us = stamp + period + period // 2
+        if self._settling:
+            if stamp >= self._settle_until_us:
+                self._settling = False
+            else:
+                self._deadline_us = max(self._deadline_us,
+                                        self._settle_until_us + period + period // 2)
 
-    def _conversion(self) -> bytes:
-        stamp = self._time()
-        raws, tmask, smask = self._read_chips()
-        if self._skip_next:
-            self._skip_next = False
-            return b""
         out = bytearray()
-        if self._tare is not None:
-            out += self._tare_step(raws, tmask)  # its ACK precedes frames with new offsets
-        self._conversions += 1
-        if self.streaming and self._conversions % self.decimation == 0:
-            values, smask = self._tared(raws, tmask, smask)
-            out += self._send(Sample(0, stamp, tuple(values), tmask, smask))
+        tare = self._tare
+        tare_failed = tare is not None and bool(tare.mask & ~valid)
+        tare_done = False
+        if not discard:
+            self._dec_count += 1
+            if self._dec_count >= self.decimation:
+                self._dec_count = 0
+                values, smask = [0] * self.channels, 0
+                for i in range(self.channels):
+                    if not valid >> i & 1:
+                        continue
+                    v = raws[i] - self.offsets[i]
+                    if raws[i] in (INT24_MIN, INT24_MAX) or not INT24_MIN <= v <= INT24_MAX:
+                        smask |= 1 << i
+                    values[i] = max(INT24_MIN, min(INT24_MAX, v))
+                if tare is not None and not tare_failed:
+                    for i in range(self.channels):
+                        if tare.mask >> i & 1:
+                            tare.sums[i] += raws[i]
+                    tare.taken += 1
+                    tare_done = tare.taken >= tare.samples
+                # The SAMPLE of the last tare reading still has the old offsets; the ACK
+                # follows it, and every SAMPLE after the ACK has the new ones.
+                if self.streaming:
+                    out += self._send(Sample(0, _micros(stamp), tuple(values),
+                                             self._all_mask & ~valid, smask))
+        if tare_failed:
+            out += self._finish_tare(False)
+        elif tare_done:
+            out += self._finish_tare(True)
         return bytes(out)
 
-    def _tare_step(self, raws: list[int], tmask: int) -> bytes:
+    def _finish_tare(self, ok: bool) -> bytes:
         tare = self._tare
         assert tare is not None
-        if tmask & tare.mask:
-            self._tare = None
-            return self._nack(tare.request_id, 0x05, ErrorCode.CHIP_TIMEOUT)
-        for i in range(self.channels):
-            if tare.mask >> i & 1:
-                tare.sums[i] += raws[i]
-        tare.taken += 1
-        if tare.taken < tare.samples:
-            return b""
+        self._tare = None
+        if not ok:  # the old offsets are kept
+            return self._nack(tare.request_id, int(MsgType.TARE), ErrorCode.CHIP_TIMEOUT)
         for i in range(self.channels):
             if tare.mask >> i & 1:
                 # Round half away from zero, as the firmware's integer division does.
                 s, n = tare.sums[i], tare.samples
                 self.offsets[i] = (abs(s) + n // 2) // n * (1 if s >= 0 else -1)
-        self._tare = None
-        return self._send(Ack(0, tare.request_id, 0x05))
+        return self._send(Ack(0, tare.request_id, int(MsgType.TARE)))
+
+
+def _micros(t_us: int) -> int:
+    """What the Uno's micros() reads at ``t_us``: steps of 4 us, wrapping at 2^32."""
+    return (t_us - t_us % 4) % U32
