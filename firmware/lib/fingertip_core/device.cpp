@@ -197,7 +197,10 @@ void Device::poll() {
 
 void Device::serviceRx() {
   // Bytes up to and including one delimiter: one command per loop iteration at most, so the
-  // chips are checked between commands.
+  // chips are checked between commands. A command is taken only when its longest answer
+  // (INFO then ACK) fits in the transmit buffer: answers are never dropped, the command
+  // waits in the UART's receive buffer instead (the host waits for its answer anyway).
+  if (hal_.txFree() < replyRoom()) return;
   for (;;) {
     const int16_t b = hal_.rxByte();
     if (b < 0) return;
@@ -212,6 +215,11 @@ void Device::serviceRx() {
     // Garbled frames (COBS, CRC, too short, too long) are only counted by the receiver.
     return;
   }
+}
+
+uint16_t Device::replyRoom() const {
+  // INFO frame 23 + 3 x channels bytes, ACK frame 8 bytes; each + 1 COBS + 1 delimiter.
+  return static_cast<uint16_t>(23u + 3u * channels_ + 2u + 8u + 2u);
 }
 
 void Device::execute(const ftp::Command& c) {

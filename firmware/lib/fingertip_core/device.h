@@ -76,6 +76,7 @@ class Device {
  private:
   // Commands.
   void serviceRx();
+  uint16_t replyRoom() const;
   void execute(const ftp::Command& c);
   void startTare(const ftp::Command& c);
   void setTareOffsets(const ftp::Command& c);
