@@ -2,6 +2,7 @@
 #   make setup     Debian packages (when missing) and .venv with pinned Python packages
 #   make test      set-up, native C++ tests, firmware build, every pytest suite
 #   make firmware  the Uno firmware with avr-gcc (ELF + HEX, sizes checked)
+#   make sim       the simavr harness that runs that firmware with simulated HX711s
 #   make bench     benchmarks -> docs/benchmarks.md and docs/benchmarks.json
 # Run `make help` for the rest.
 
@@ -31,7 +32,7 @@ PYTEST_ARGS ?=
         bench vectors clean distclean
 
 help:
-	@sed -n '2,7p' Makefile | sed 's/^# *//'
+	@sed -n '2,8p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/ and tests/"
@@ -61,6 +62,8 @@ $(STAMPS)/venv: pyproject.toml requirements/dev.txt | system-packages
 test: setup
 	$(MAKE) --no-print-directory test-native
 	$(MAKE) --no-print-directory firmware
+	$(MAKE) --no-print-directory sim
+	$(MAKE) --no-print-directory -C firmware/sim selftest
 	$(MAKE) --no-print-directory lint
 	$(MAKE) --no-print-directory test-python
 
@@ -76,6 +79,10 @@ flash:
 	@test -n "$(PORT)" || { echo "usage: make flash PORT=/dev/ttyACM0 [CHANNELS=4|16]" >&2; exit 2; }
 	$(MAKE) --no-print-directory firmware venv
 	$(VENV)/bin/fingertip flash --port "$(PORT)" --channels "$(or $(CHANNELS),4)"
+
+# The firmware-in-the-loop harness: the real ELF in simavr with simulated HX711s on a pty.
+sim: system-packages
+	$(MAKE) --no-print-directory -C firmware/sim
 
 lint: venv
 	$(VENV)/bin/ruff check host tests
