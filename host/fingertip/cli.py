@@ -9,14 +9,17 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from . import __version__
+from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
 from .protocol import (
     PROTOCOL_MAJOR,
     PROTOCOL_MINOR,
+    ProtocolVersionError,
     RejectedCommand,
     StreamDecoder,
     message_to_dict,
 )
+from .transport import DeviceNotFound, TransportError, list_ports
 
 log = logging.getLogger("fingertip")
 
@@ -70,6 +73,168 @@ def _cmd_flash(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- devices ------------------------------------------------------------------------------
+
+def _cmd_devices(args: argparse.Namespace) -> int:
+    """List serial ports with their USB identity (and which look like fingertips)."""
+    ports = list_ports(include_non_usb=args.all)
+    if args.json:
+        print(json.dumps([{"device": p.device, "usb_id": p.usb_id,
+                           "serial_number": p.serial_number, "location": p.location,
+                           "description": p.description} for p in ports]))
+        return 0
+    if not ports:
+        print("no USB serial ports found" + ("" if args.all else " (--all lists every port)"))
+        return 0
+    print(f"{'port':<22} {'usb id':<10} {'serial number':<24} {'usb path':<12} description")
+    for p in ports:
+        print(f"{p.device:<22} {p.usb_id:<10} {p.serial_number or '-':<24} "
+              f"{p.location or '-':<12} {p.description}")
+    return 0
+
+
+def _open(args: argparse.Namespace) -> Fingertip:
+    if args.serial:
+        return Fingertip(serial_number=args.serial).open()
+    return Fingertip(args.port).open()
+
+
+def _device_errors(fn):
+    """Turn the errors a user can cause (wrong port, no device...) into one clear line."""
+    def run(args: argparse.Namespace) -> int:
+        try:
+            return fn(args)
+        except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+            log.error("%s", e)
+            return 2
+    run.__doc__ = fn.__doc__
+    return run
+
+
+@_device_errors
+def _cmd_info(args: argparse.Namespace) -> int:
+    """Show what the device reports about itself, and its counters."""
+    with _open(args) as ft:
+        info, stats = ft.info, ft.device_stats()
+        if args.json:
+            print(json.dumps({"info": message_to_dict(info), "stats": message_to_dict(stats)}))
+            return 0
+        fw = ".".join(map(str, info.firmware_version))
+        print(f"port              {ft.port}")
+        print(f"protocol          v{info.protocol_major}.{info.protocol_minor}")
+        print(f"firmware          {fw} (build {info.build_id:08x})")
+        print(f"channels          {info.channels}")
+        print(f"rate              {info.rate_sps} SPS, decimation {info.decimation}")
+        print(f"gain              {info.gain}")
+        print(f"streaming         {'yes' if info.streaming else 'no'}")
+        print(f"tare offsets      {', '.join(map(str, info.tare_offsets))}")
+        print(f"reset cause       0x{info.reset_cause:02x}")
+        for k, v in message_to_dict(stats).items():
+            if k not in ("type", "seq"):
+                print(f"{k:<17} {v}")
+    return 0
+
+
+@_device_errors
+def _cmd_tare(args: argparse.Namespace) -> int:
+    """Average readings on the device and subtract them from then on."""
+    with _open(args) as ft:
+        chans = [int(c) for c in args.channels.split(",")] if args.channels else None
+        offsets = ft.tare(chans, samples=args.samples)
+        print("tare offsets: " + ", ".join(map(str, offsets)))
+    return 0
+
+
+@_device_errors
+def _cmd_stream(args: argparse.Namespace) -> int:
+    """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
+    import time
+
+    with _open(args) as ft:
+        if args.rate or args.decimation:
+            ft.set_rate(args.rate or ft.info.rate_sps, args.decimation or 1)
+        if args.gain:
+            ft.set_gain(args.gain)
+        if args.tare:
+            ft.tare(samples=args.tare)
+        ft.start()
+        live = sys.stdout.isatty() and not args.json
+        n, t_end = 0, (time.monotonic() + args.duration) if args.duration else None
+        last_print, first = 0.0, None
+        try:
+            while (args.count is None or n < args.count) and \
+                    (t_end is None or time.monotonic() < t_end):
+                f = ft.read(timeout=1.0)
+                if f is None:
+                    if ft.status != "connected":
+                        print(f"\r[{ft.status}]", end="", file=sys.stderr, flush=True)
+                    continue
+                n += 1
+                first = first or f
+                if args.json:
+                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
+                                      "host_time": f.host_time, "counts": f.counts,
+                                      "timeout_mask": f.timeout_mask,
+                                      "saturation_mask": f.saturation_mask}), flush=True)
+                elif not live:
+                    print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
+                          + " ".join(f"{c:9d}" for c in f.counts)
+                          + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
+                             f"sat={f.saturation_mask:#x}"), flush=True)
+                elif f.arrival_time - last_print > 0.1:
+                    last_print = f.arrival_time
+                    span = (f.device_time_us - first.device_time_us) / 1e6
+                    rate = (n - 1) / span if span > 0 else 0.0
+                    st = ft.stats
+                    print(f"\r{n:7d} frames {rate:6.1f}/s  " + " ".join(
+                        f"{c:9d}" for c in f.counts)
+                        + f"  lost {st.frames_lost} crc {st.crc_errors}   ", end="", flush=True)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            if live:
+                print()
+            try:
+                ft.stop()
+            except FingertipError:
+                pass
+        st = ft.stats
+        print(f"{n} frames; lost {st.frames_lost}, CRC errors {st.crc_errors}, COBS errors "
+              f"{st.cobs_errors}, reconnects {st.reconnects}, device resets "
+              f"{st.device_resets}", file=sys.stderr)
+    return 0
+
+
+def _cmd_sim_device(args: argparse.Namespace) -> int:
+    """Serve a virtual fingertip (pure Python, the firmware's twin) on a pseudo-terminal."""
+    import signal
+    import threading
+
+    from .sim import VirtualFirmware
+    from .sim.pty_device import PtyDevice
+    from .sim.physics import Idle, VirtualStrainSensor
+
+    scene = Idle(duration=1e9)
+    source = VirtualStrainSensor(args.seed).as_source(scene)
+    fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with PtyDevice(fw, link=args.link) as dev:
+        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+        try:
+            while not stop.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def _add_device_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
+    g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="fingertip",
@@ -101,6 +266,46 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--dry-run", action="store_true",
                    help="run avrdude with its 'dryrun' programmer: nothing is written")
     f.set_defaults(func=_cmd_flash)
+
+    dv = sub.add_parser("devices", help="list serial ports with their USB serial numbers",
+                        description=_cmd_devices.__doc__)
+    dv.add_argument("--all", action="store_true", help="also ports that are not USB")
+    dv.add_argument("--json", action="store_true")
+    dv.set_defaults(func=_cmd_devices)
+
+    i = sub.add_parser("info", help="what the device reports about itself",
+                       description=_cmd_info.__doc__)
+    _add_device_args(i)
+    i.add_argument("--json", action="store_true")
+    i.set_defaults(func=_cmd_info)
+
+    t = sub.add_parser("tare", help="zero the channels on the device",
+                       description=_cmd_tare.__doc__)
+    _add_device_args(t)
+    t.add_argument("--samples", type=int, default=16, help="readings to average (1-256)")
+    t.add_argument("--channels", help="comma-separated channel numbers (default: all)")
+    t.set_defaults(func=_cmd_tare)
+
+    st = sub.add_parser("stream", help="show the live frame stream",
+                        description=_cmd_stream.__doc__)
+    _add_device_args(st)
+    st.add_argument("--count", type=int, help="stop after N frames")
+    st.add_argument("--duration", type=float, help="stop after S seconds")
+    st.add_argument("--json", action="store_true", help="one JSON object per frame")
+    st.add_argument("--rate", type=int, choices=(10, 80), help="the chips' rate (RATE pin)")
+    st.add_argument("--decimation", type=int, help="keep every n-th conversion")
+    st.add_argument("--gain", type=int, choices=(128, 64, 32))
+    st.add_argument("--tare", type=int, metavar="N", help="tare with N samples first")
+    st.set_defaults(func=_cmd_stream)
+
+    sm = sub.add_parser("sim", help="the virtual fingertip (no hardware needed)")
+    smsub = sm.add_subparsers(dest="sim_command", metavar="SIM_COMMAND", required=True)
+    sd = smsub.add_parser("device", help="serve a virtual fingertip on a pseudo-terminal",
+                          description=_cmd_sim_device.__doc__)
+    sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
+    sd.add_argument("--link", help="also make this path a symlink to the pty")
+    sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sd.set_defaults(func=_cmd_sim_device)
     return p
 
 
