@@ -61,7 +61,8 @@ class Frame:
     device_time_us: int
     """Device microseconds, unwrapped (no 32-bit wraparound)."""
     host_time: float
-    """Device time mapped to this host's ``time.monotonic()`` seconds (drift corrected)."""
+    """Device time mapped to this host's ``time.monotonic()`` seconds (drift corrected): when
+    the chips signalled this reading ready, as this host's clock would have read then."""
     arrival_time: float
     """``time.monotonic()`` when the frame's last byte was read."""
     counts: tuple[int, ...]
@@ -504,7 +505,11 @@ class Fingertip:
                 log.log(10 + 10 * min(msg.level, 3), "%s device: %s", self.name, msg.text)
 
     def _on_sample(self, msg: Sample, arrival: float) -> None:
-        d = self.clock.observe(msg.timestamp_us, arrival)
+        # The frame left the device after its last byte crossed the UART: take that transit
+        # time (10 bits a byte, COBS byte and delimiter included) out of the arrival time,
+        # so that the clock map lands on the moment the chips were ready.
+        transit = (16 + 3 * len(msg.values)) * 10 / self.baudrate
+        d = self.clock.observe(msg.timestamp_us, arrival - transit)
         frame = Frame(msg.seq, d, self.clock.to_host(d), arrival, msg.values,
                       msg.timeout_mask, msg.saturation_mask)
         with self._cond:
