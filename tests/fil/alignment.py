@@ -1,0 +1,89 @@
+"""Force and audio on one host clock: the firmware in simavr paced with a clock error, and a
+sound card with its own clock error and a known offset, each mapped by its own estimator.
+
+Ground truth:
+- Device: simavr paces simulated time to the host clock with ``throttle`` F (simulated seconds
+  per host second), so device time ``t`` happened at host time ``w0 + t / F``; F = 1 + 100 ppm
+  is a device crystal 100 ppm fast. ``w0`` is measured by polling the harness's time.
+- Audio: a simulated sound card whose frame ``k`` was digitised at ``a0 + k / (fs (1 + e))``
+  (``e``: its crystal error, ``a0``: the injected offset); it delivers blocks as a real card
+  does, after a fixed latency plus scheduling jitter, to the same estimator the live capture
+  uses (fingertip.audio.clock.FrameClock with its reported latency taken out).
+
+The error is how far apart the two maps put one physical instant, and how far each is from
+the truth.
+"""
+from __future__ import annotations
+
+import random
+import threading
+import time
+from dataclasses import dataclass
+
+from fingertip.audio.clock import FrameClock
+from fingertip.sim.simavr import FirmwareSim, firmware_elf, open_fingertip
+
+FS = 44_100
+BLOCK = 441
+LATENCY = 0.008
+
+
+@dataclass
+class AlignResult:
+    align_error_ms: float       # worst |force map - audio map| for the same instant
+    force_error_ms: float       # worst |force map - truth|
+    audio_error_ms: float       # worst |audio map - truth|
+    frames: int
+
+
+def _sound_card(stop: threading.Event, clock: FrameClock, a0: float, err: float,
+                seed: int) -> None:
+    rng = random.Random(seed)
+    rate = FS * (1 + err)
+    k = 0
+    while not stop.is_set():
+        k += BLOCK
+        captured = a0 + k / rate  # when frame k-1 was digitised (end of the block)
+        deliver = captured + LATENCY + rng.expovariate(1 / 0.0015)
+        delay = deliver - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        clock.observe(k, time.monotonic() - LATENCY)
+
+
+def measure(device_ppm: float, audio_ppm: float, seconds: float = 25.0,
+            offset_s: float = 0.3217, seed: int = 1) -> AlignResult:
+    F = 1 + device_ppm * 1e-6
+    with FirmwareSim(4, firmware_elf(4), throttle=F) as sim:
+        with open_fingertip(sim, queue_size=100_000) as ft:
+            ft.start()
+            a0 = time.monotonic() + offset_s
+            audio = FrameClock(FS)
+            stop = threading.Event()
+            card = threading.Thread(target=_sound_card,
+                                    args=(stop, audio, a0, audio_ppm * 1e-6, seed))
+            card.start()
+            w0s = []
+            t_end = time.monotonic() + seconds + offset_s
+            while time.monotonic() < t_end:
+                r = sim.command("time")
+                w0s.append(time.monotonic() - r["t_us"] * 1e-6 / F)
+                time.sleep(0.02)
+            stop.set()
+            card.join()
+            frames = ft.drain()
+            w0 = min(w0s)
+            # Instants over the last 5 s, where both estimators have a full history.
+            rng = random.Random(seed)
+            last = frames[-1].device_time_us
+            worst_align = worst_force = worst_audio = 0.0
+            for _ in range(200):
+                t_dev = last - rng.uniform(0, 5e6)
+                truth = w0 + t_dev * 1e-6 / F
+                force_est = ft.clock.to_host(t_dev)
+                k = (truth - a0) * FS * (1 + audio_ppm * 1e-6)
+                audio_est = audio.to_host(k)
+                worst_align = max(worst_align, abs(force_est - audio_est))
+                worst_force = max(worst_force, abs(force_est - truth))
+                worst_audio = max(worst_audio, abs(audio_est - truth))
+    return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames))

@@ -1,0 +1,17 @@
+"""Force and audio aligned to within 1 ms with +-100 ppm clock errors and a known offset."""
+from __future__ import annotations
+
+import pytest
+
+from tests.fil.alignment import measure
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("fil_builds")
+@pytest.mark.parametrize("device_ppm, audio_ppm", [(100.0, -100.0), (-100.0, 100.0)])
+def test_force_and_audio_align_within_1ms(device_ppm, audio_ppm):
+    r = measure(device_ppm, audio_ppm)
+    print(f"device {device_ppm:+} ppm, audio {audio_ppm:+} ppm: {r}")
+    assert r.frames > 80 * 20
+    assert r.align_error_ms < 1.0
+    assert r.force_error_ms < 1.0 and r.audio_error_ms < 1.0
