@@ -1,4 +1,5 @@
 # fingertip: one entry point for users, developers and CI.
+#   make demo      the whole chain on a virtual fingertip (no hardware): live stream, PNG
 #   make setup     Debian packages (when missing) and .venv with pinned Python packages
 #   make test      set-up, native C++ tests, firmware build, every pytest suite
 #   make firmware  the Uno firmware with avr-gcc (ELF + HEX, sizes checked)
@@ -28,11 +29,11 @@ APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $
 
 PYTEST_ARGS ?=
 
-.PHONY: help setup system-packages venv test test-native test-python lint firmware sim \
+.PHONY: help setup system-packages venv test test-native test-python lint firmware sim demo \
         bench vectors clean distclean
 
 help:
-	@sed -n '2,8p' Makefile | sed 's/^# *//'
+	@sed -n '2,9p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/ and tests/"
@@ -92,6 +93,11 @@ test-python: venv
 	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
 	exit $$rc
+
+# The virtual fingertip end to end: physics -> the firmware in simavr -> bridge -> events.
+demo: setup
+	$(MAKE) --no-print-directory firmware sim
+	$(VPY) -m fingertip.cli demo --out demo-output
 
 bench: setup
 	$(VPY) tests/bench/run.py

@@ -30,3 +30,15 @@ def load_vectors() -> dict:
 @pytest.fixture(scope="session")
 def vectors() -> dict:
     return load_vectors()
+
+
+@pytest.fixture
+def fil_builds() -> None:
+    """Fail clearly when the simavr harness or the 4-channel firmware has not been built."""
+    from fingertip.sim.simavr import HarnessError, firmware_elf, harness_binary
+
+    try:
+        harness_binary()
+        firmware_elf(4)
+    except HarnessError as e:
+        pytest.fail(f"{e} (make test builds both before running pytest)")

@@ -229,6 +229,24 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_demo(args: argparse.Namespace) -> int:
+    """The whole chain on a virtual fingertip: physics -> firmware -> bridge -> events -> PNG."""
+    from .demo import run_demo
+
+    device = {"auto": None, "firmware": True, "python": False}[args.device]
+    r = run_demo(args.out, use_firmware=device, seed=args.seed)
+    st = r.stats
+    print(f"device:      {r.device}")
+    print(f"frames:      {st['frames']} (lost {st['frames_lost']}, CRC errors "
+          f"{st['crc_errors']})")
+    print(f"audio:       {st['audio_frames']} samples at {r.fs:.0f} Hz "
+          f"(overruns {st['audio_overflows']})")
+    for e in r.events:
+        print(f"event        {e.time:7.3f} s  {e.kind}")
+    print(f"summary:     {r.png}")
+    return 0
+
+
 def _add_device_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
@@ -297,6 +315,15 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--gain", type=int, choices=(128, 64, 32))
     st.add_argument("--tare", type=int, metavar="N", help="tare with N samples first")
     st.set_defaults(func=_cmd_stream)
+
+    dm = sub.add_parser("demo", help="run the whole chain on a virtual fingertip",
+                        description=_cmd_demo.__doc__)
+    dm.add_argument("--out", default="demo-output", help="folder for the outputs")
+    dm.add_argument("--device", choices=("auto", "firmware", "python"), default="auto",
+                    help="firmware = the real ELF in simavr; python = its twin; auto = "
+                         "firmware when built")
+    dm.add_argument("--seed", type=int, default=7, help="which virtual unit")
+    dm.set_defaults(func=_cmd_demo)
 
     sm = sub.add_parser("sim", help="the virtual fingertip (no hardware needed)")
     smsub = sm.add_subparsers(dest="sim_command", metavar="SIM_COMMAND", required=True)

@@ -15,12 +15,6 @@ def _need_builds(channels: int | str) -> None:
 
 
 @pytest.fixture
-def fil_builds() -> None:
-    """Fail clearly when the harness or the 4-channel firmware has not been built."""
-    _need_builds(4)
-
-
-@pytest.fixture
 def make_sim():
     """Start harnesses on demand; every one is quit (and checked gone) at teardown."""
     sims: list[FirmwareSim] = []

@@ -39,17 +39,21 @@ def _check_finite(name: str, x: np.ndarray) -> np.ndarray:
     return x
 
 
-def contact_intervals(t: np.ndarray, counts: np.ndarray, *, k_on: float = 8.0,
-                      k_off: float = 4.0, release_fraction: float = 0.15,
-                      baseline_s: float = 0.3, settle_s: float = 0.15,
+def contact_intervals(t: np.ndarray, counts: np.ndarray, *, k_on: float = 20.0,
+                      k_off: float = 10.0, release_fraction: float = 0.15,
+                      track_s: float = 0.3, settle_s: float = 0.2, baseline_s: float = 0.3,
                       min_sigma: float = 1.0) -> list[Event]:
     """Contact make/break events from force channels (``counts``: frames x channels, tared or
-    not; ``t``: frame times). The magnitude of the change from the first ``baseline_s`` of
-    the signal is compared with ``k_on`` times its noise there to make contact; contact
-    breaks below ``k_off`` times the noise or ``release_fraction`` of the contact's peak,
-    whichever is higher (hysteresis and creep of the prism leave a residue after unloading
-    that is far above the noise). For ``settle_s`` after a break the zero follows the signal
-    (the end of the unloading), then holds until the next contact."""
+    not; ``t``: frame times in seconds).
+
+    Out of contact, a zero follows the signal with time constant ``track_s``, so slow drift
+    (creep recovering after a release, temperature) is not taken for contact; in contact the
+    zero holds. Contact is made when the change from the zero exceeds ``k_on`` times the
+    noise (estimated from the first ``baseline_s``), and breaks below ``k_off`` times the
+    noise or ``release_fraction`` of the contact's peak, whichever is higher: hysteresis and
+    creep of the prism leave a residue after unloading that is far above the noise. For
+    ``settle_s`` after a break the zero is the signal itself (the end of the unloading).
+    """
     t = _check_finite("t", t)
     c = _check_finite("counts", np.atleast_2d(counts))
     if c.shape[0] != t.shape[0]:
@@ -58,28 +62,31 @@ def contact_intervals(t: np.ndarray, counts: np.ndarray, *, k_on: float = 8.0,
         raise ValueError("counts must have one row per time")
     if t.size < 3:
         return []
-    base_n = max(2, int(np.searchsorted(t, t[0] + baseline_s)))
-    base = c[:base_n].mean(axis=0)
-    mag = np.linalg.norm(c - base, axis=1)
-    sigma = max(robust_sigma(np.diff(mag[:base_n])) / np.sqrt(2), min_sigma)
+    base_n = max(3, int(np.searchsorted(t, t[0] + baseline_s)))
+    sigma = max(float(np.median([robust_sigma(np.diff(c[:base_n, j]))
+                                 for j in range(c.shape[1])])) / np.sqrt(2), min_sigma)
     on, off = k_on * sigma, k_off * sigma
+    zero = c[:base_n].mean(axis=0)
     events: list[Event] = []
     inside = False
     peak = 0.0
     settle_until = -np.inf
     for i in range(t.size):
         if not inside and t[i] < settle_until:
-            base = c[i].copy()
-        m = float(np.linalg.norm(c[i] - base))
-        if not inside and m > on:
-            inside, peak = True, m
-            events.append(Event(float(t[i]), "contact_make", m))
-        elif inside:
+            zero = c[i].copy()
+        m = float(np.linalg.norm(c[i] - zero))
+        if not inside:
+            if m > on:
+                inside, peak = True, m
+                events.append(Event(float(t[i]), "contact_make", m))
+            elif i:
+                a = min(1.0, (t[i] - t[i - 1]) / track_s)
+                zero += a * (c[i] - zero)
+        else:
             peak = max(peak, m)
             if m < max(off, release_fraction * peak):
                 inside = False
-                # The residue after unloading is the new zero for the next contact.
-                base = c[i].copy()
+                zero = c[i].copy()
                 settle_until = t[i] + settle_s
                 events.append(Event(float(t[i]), "contact_break", m))
     return events

@@ -1,0 +1,231 @@
+"""`fingertip demo` / `make demo`: the whole chain on a virtual fingertip, in about 30 s.
+
+A scripted scene (a press, a slide over two materials, a slide down a stack of paper cups)
+drives the physics of a virtual fingertip; its strain signals go into the real firmware in
+simavr (or the firmware's pure-Python twin) and come back through the host bridge over a
+pty, its piezo signal through the audio capture interface. The bridge tares, streams (a live
+line in the terminal), the events are detected, and a PNG summary is written.
+"""
+from __future__ import annotations
+
+import logging
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .audio import SimulatedSource
+from .device import Fingertip, Frame
+from .events import Event, contact_intervals, vibration_onsets
+from .plots import session_summary
+from .sim import VirtualFirmware
+from .sim.physics import CupStackSlide, Press, Script, Slide, VirtualStrainSensor, simulate
+
+log = logging.getLogger(__name__)
+
+LEAD_S = 0.4        # between arming the scene and its start
+GRID_US = 2_500     # how finely the harness's analog inputs follow the physics
+
+
+def demo_scene() -> Script:
+    both = ("force", "vibration")
+    return Script((Press(angle_deg=20.0, peak_n=2.0, ramp_s=1.0, hold_s=0.6, pre_s=0.5,
+                         post_s=0.5, signals=both),
+                   Slide("coarse_fabric", duration=2.0, speed_mm_s=20.0, normal_n=1.0,
+                         signals=both),
+                   Slide("copper_tape", duration=2.0, speed_mm_s=20.0, normal_n=1.0,
+                         signals=both),
+                   CupStackSlide(signals=both)), gap_s=0.6)
+
+
+@dataclass
+class DemoResult:
+    frames: list[Frame]
+    audio: np.ndarray
+    fs: float
+    events: list[Event]
+    png: Path
+    device: str
+    stats: dict = field(default_factory=dict)
+
+
+class _Live:
+    """One status line on a terminal, refreshed a few times a second."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.last = 0.0
+
+    def show(self, text: str) -> None:
+        now = time.monotonic()
+        if self.enabled and now - self.last > 0.2:
+            self.last = now
+            print("\r" + text[:150].ljust(150), end="", file=sys.stderr, flush=True)
+
+    def done(self) -> None:
+        if self.enabled:
+            print(file=sys.stderr)
+
+
+def _firmware_device(sensor: VirtualStrainSensor, scene, duration_s: float):
+    """The real firmware in simavr, its inputs following the physics on a fine grid."""
+    from .sim.simavr import FirmwareSim, open_fingertip
+
+    sim = FirmwareSim(4, throttle=1.0).start()
+    # Until the scene is armed: the unloaded unit, with the HX711's noise (the harness's own
+    # Gaussian noise, at the level the physics gives at 80 SPS).
+    idle = sensor.raw_counts_batch(np.zeros((1, 2)), 0.0, [0.0], update_state=False)[0]
+    for c, v in enumerate(idle):
+        sim.set(c, int(round(v)))
+    sim.noise("*", float(np.mean(sensor.noise_counts_rms(80))))
+    ft = open_fingertip(sim, queue_size=100_000, name="virtual fingertip (simavr)")
+
+    def arm() -> float:
+        """Schedule the scene (and the idle lead-in before it, noise included); returns the
+        host time at which it starts."""
+        now_us = sim.time_us()
+        t0_us = now_us + LEAD_S * 1e6
+        host_start = time.monotonic() + LEAD_S
+        ts = np.arange(-(LEAD_S - 0.05) * 1e6, duration_s * 1e6, GRID_US) * 1e-6
+        f = scene.forces(np.maximum(ts, 0.0))
+        f.xy[ts < 0] = 0.0
+        raw = sensor.raw_counts_batch(f.xy, f.height_mm, t0_us * 1e-6 + ts, f.z, rate_sps=80)
+        sim.rows(t0_us + ts * 1e6, np.rint(raw).astype(np.int64))
+        return host_start
+
+    return ft, arm, sim.close, "the firmware ELF in simavr"
+
+
+def _python_device(sensor: VirtualStrainSensor, scene, duration_s: float):
+    """The firmware's pure-Python twin on a pty, reading the physics at each conversion."""
+    from .sim.pty_device import PtyDevice
+
+    start = {"us": 1 << 62}  # scene start in device time: far away until armed
+    src_inner: dict = {}
+
+    def source(t_us: int):
+        if "fn" not in src_inner:
+            return tuple(float(v) for v in sensor.raw_counts_batch(
+                np.zeros((1, 2)), 0.0, [t_us * 1e-6], rate_sps=80)[0])
+        return src_inner["fn"](t_us)
+
+    dev = PtyDevice(VirtualFirmware(4, source=source)).start()
+    ft = Fingertip(dev.port, queue_size=100_000, name="virtual fingertip (Python twin)").open()
+
+    def arm() -> float:
+        now_us = dev._device_us()
+        start["us"] = now_us + int(LEAD_S * 1e6)
+        src_inner["fn"] = sensor.as_source(scene, t0_us=start["us"], rate_sps=80)
+        return time.monotonic() + LEAD_S
+
+    return ft, arm, dev.stop, "the firmware's pure-Python twin"
+
+
+def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None = None,
+             seed: int = 7, live: bool | None = None) -> DemoResult:
+    """Run the demo; ``use_firmware`` None = simavr when built, else the Python twin."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    scene = demo_scene()
+    duration = scene.duration_s + 0.5
+    sensor = VirtualStrainSensor(seed, rate_sps=80)
+    if use_firmware is None:
+        from .sim.simavr import HarnessError, firmware_elf, harness_binary
+        try:
+            harness_binary()
+            firmware_elf(4)
+            use_firmware = True
+        except HarnessError as e:
+            log.warning("%s; using the firmware's Python twin instead", e)
+            use_firmware = False
+    live_line = _Live(sys.stderr.isatty() if live is None else live)
+    print(f"simulating the audio of a {scene.duration_s:.1f} s scene ...", file=sys.stderr)
+    vib = simulate(Script(scene.parts, gap_s=scene.gap_s, signals=("vibration",)), seed=seed)
+    trace = vib.audio.samples.astype(np.float32)
+    fs = float(vib.audio.fs)
+
+    make = _firmware_device if use_firmware else _python_device
+    ft, arm, stop_device, what = make(sensor, scene, duration)
+    print(f"virtual fingertip: {what} on {ft.port}", file=sys.stderr)
+    frames: list[Frame] = []
+    try:
+        offsets = ft.tare(samples=16)
+        print("tared: offsets " + ", ".join(map(str, offsets)), file=sys.stderr)
+        ft.add_callback(frames.append)
+        ft.start()
+        host_start = arm()
+
+        def piezo(t: np.ndarray) -> np.ndarray:
+            k = np.clip((t * fs).astype(np.int64), 0, trace.size - 1)
+            out = trace[k]
+            out[t * fs >= trace.size] = 0.0
+            return out
+
+        # The sound card starts with the scene; its clock is the host's here.
+        mic = SimulatedSource(piezo, fs, dtype="int16", realtime=True, duration=duration,
+                              host_time0=host_start)
+        chunks = []
+        stop = threading.Event()
+
+        def capture() -> None:
+            for chunk in mic.chunks():
+                chunks.append(chunk)
+                if stop.is_set():
+                    break
+
+        while time.monotonic() < host_start:
+            time.sleep(0.005)
+        mic.start()
+        cap = threading.Thread(target=capture, daemon=True)
+        cap.start()
+        t_end = host_start + duration
+        while time.monotonic() < t_end:
+            time.sleep(0.05)
+            if frames:
+                f = frames[-1]
+                rms = float(np.sqrt(np.mean(chunks[-1].samples.astype(np.float32) ** 2))
+                            / 32768) if chunks else 0.0
+                st = ft.stats
+                live_line.show(f"t {time.monotonic() - host_start:5.1f} s  frames "
+                               f"{len(frames):5d}  counts " + " ".join(
+                                   f"{c:8d}" for c in f.counts)
+                               + f"  piezo rms {rms:.4f}  lost {st.frames_lost}")
+        live_line.done()
+        ft.stop()
+        mic.stop()
+        stop.set()
+        cap.join(timeout=2)
+        stats = {"frames": len(frames), "frames_lost": ft.stats.frames_lost,
+                 "crc_errors": ft.stats.crc_errors,
+                 "audio_frames": int(sum(c.frames for c in chunks)),
+                 "audio_overflows": mic.stats.overruns_frames}
+    finally:
+        ft.close()
+        stop_device()
+
+    # Events and the summary, on the scene's time axis (0 = scene start).
+    scene_frames = [f for f in frames if f.host_time >= host_start - 0.2]
+    t_force = np.array([f.host_time - host_start for f in scene_frames])
+    counts = np.array([f.counts for f in scene_frames], dtype=np.float64)
+    audio = np.concatenate([c.samples.reshape(-1) for c in chunks]).astype(np.float32) / 32768
+    audio_t0 = chunks[0].host_time - host_start if chunks else 0.0
+    events = contact_intervals(t_force, counts) + vibration_onsets(audio, fs, t0=audio_t0)
+    events.sort(key=lambda e: e.time)
+    truth = _truth(scene)
+    png = session_summary(out / "demo_summary.png", force_t=t_force, counts=counts, audio=audio,
+                          fs=fs, audio_t0=audio_t0, events=events, truth=truth,
+                          title=f"virtual fingertip demo ({what}): press, slide over coarse "
+                                "fabric and copper tape, slide down 5 paper cups")
+    return DemoResult(frames, audio, fs, events, png, what, stats)
+
+
+def _truth(scene: Script) -> dict[str, list[float]]:
+    """Ground-truth rim times of the cup slide on the script's time axis."""
+    rims: list[float] = []
+    for off, part in zip(scene.offsets_s, scene.parts, strict=True):
+        if isinstance(part, CupStackSlide):
+            rims += [float(off) + r for r in part.events()["rim_times_s"]]
+    return {"rims": rims}
