@@ -217,8 +217,8 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     truth = _truth(scene)
     png = session_summary(out / "demo_summary.png", force_t=t_force, counts=counts, audio=audio,
                           fs=fs, audio_t0=audio_t0, events=events, truth=truth,
-                          title=f"virtual fingertip demo ({what}): press, slide over coarse "
-                                "fabric and copper tape, slide down 5 paper cups")
+                          title=f"virtual fingertip demo, {what}: press; slide over coarse "
+                                "fabric, copper tape; slide down a cup stack")
     return DemoResult(frames, audio, fs, events, png, what, stats)
 
 
