@@ -452,7 +452,8 @@ class Fingertip:
                 self._reconnect()
                 continue
             try:
-                data = stream.read(4096, timeout=0.02)
+                # The timeout only bounds how long close() waits: data wakes the read at once.
+                data = stream.read(4096, timeout=0.1)
             except TransportError as e:
                 if self._closing.is_set():
                     return

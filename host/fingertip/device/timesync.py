@@ -77,7 +77,7 @@ class ClockSync:
     """
 
     def __init__(self, window_s: float = 20.0, bin_s: float = 0.25, max_skew: float = 2e-3,
-                 refit_every: int = 8, min_span_s: float = 4.0) -> None:
+                 refit_every: int = 64, min_span_s: float = 4.0) -> None:
         if window_s <= 2 * bin_s:
             raise ValueError("window_s must span several bins")
         self.window_s = window_s
@@ -115,16 +115,25 @@ class ClockSync:
         lag = host_s - d * 1e-6
         b = math.floor(d * 1e-6 / self.bin_s)
         bins = self._bins
+        changed = False
         if bins and bins[-1][0] == b:
             if lag < bins[-1][2]:
                 bins[-1][1] = d
                 bins[-1][2] = lag
+                changed = True
         else:
             bins.append([b, d, lag])
+            changed = True
             while bins and (b - bins[0][0]) * self.bin_s > self.window_s:
                 bins.popleft()
         self._since_fit += 1
-        if self._fit is None or self._since_fit >= self.refit_every:
+        # Refit only when the lower envelope moved (a new bin, or a new minimum in the last
+        # one) and at least every refit_every points: most frames cost no fit at all.
+        fit = self._fit
+        if fit is None or self._since_fit >= self.refit_every or (
+                changed and (len(bins) < 3 or host_s < fit.to_host(d))):
+            self._refit()
+        elif changed and self._since_fit >= 8:
             self._refit()
         return d
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import logging
 import os
+import select
 
 import serial
 
@@ -25,6 +26,12 @@ class SerialStream:
                                       exclusive=True)
         except (serial.SerialException, OSError, ValueError) as e:
             raise TransportError(_explain(port, e)) from e
+        # On POSIX, wait on the descriptor and take whatever has arrived in one read: one
+        # wake-up per burst of bytes instead of pyserial's byte-count-driven loop.
+        try:
+            self._fd: int | None = self._ser.fileno()
+        except (AttributeError, serial.SerialException, OSError):
+            self._fd = None
 
     @property
     def is_open(self) -> bool:
@@ -33,6 +40,19 @@ class SerialStream:
     def read(self, max_bytes: int = 4096, timeout: float = 0.05) -> bytes:
         if not self._ser.is_open:
             raise TransportClosed(f"{self.name} is closed")
+        if self._fd is not None:
+            try:
+                ready, _, _ = select.select([self._fd], [], [], timeout)
+                if not ready:
+                    return b""
+                data = os.read(self._fd, max_bytes)
+            except BlockingIOError:
+                return b""
+            except (OSError, ValueError) as e:
+                raise TransportClosed(f"{self.name}: {e}") from e
+            if not data:  # readable but empty: the device is gone (USB unplugged, pty closed)
+                raise TransportClosed(f"{self.name}: the device disconnected")
+            return data
         try:
             if self._ser.timeout != timeout:
                 self._ser.timeout = timeout

@@ -1,0 +1,108 @@
+"""The host bridge's cost and latency: four fingertips at 80 Hz, 44.1 kHz audio, a force model.
+
+The four virtual fingertips run in their own processes (`fingertip sim device`, the
+firmware's twin on a pty), so this process's CPU time is the bridge alone: four readers
+decoding and mapping clocks, one simulated sound card delivering 441-frame blocks into the
+capture ring, and a force estimate per frame in the frame callback. The force model here is
+an affine map in numpy (calibrated force models in ONNX come with the models issue).
+Latency is from the moment the read that completed a frame returned to the moment the
+force estimate is available to user code (the end of the callback chain).
+"""
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fingertip import Fingertip
+from fingertip.audio import SimulatedSource
+
+SECONDS = 20.0
+EXE = str(Path(sys.executable).with_name("fingertip"))
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def run() -> dict[str, float]:
+    tmp = Path(tempfile.mkdtemp(prefix="bench-bridge-"))
+    procs = []
+    devices = []
+    try:
+        for k in range(4):
+            link = tmp / f"ft{k}"
+            p = subprocess.Popen([EXE, "sim", "device", "--link", str(link), "--seed", str(k)],
+                                 stdout=subprocess.PIPE, text=True)
+            p.stdout.readline()
+            procs.append(p)
+        weights = np.random.default_rng(0).normal(size=(4, 2)) * 1e-5  # counts -> N
+        latencies: list[float] = []
+        forces = np.zeros(2)
+
+        def on_frame(frame) -> None:
+            nonlocal forces
+            forces = np.asarray(frame.counts, dtype=np.float64) @ weights
+            latencies.append(time.monotonic() - frame.arrival_time)
+
+        for k in range(4):
+            ft = Fingertip(str(tmp / f"ft{k}"), queue_size=100_000).open()
+            ft.add_callback(on_frame)
+            devices.append(ft)
+        mic = SimulatedSource(lambda t: np.sin(2 * np.pi * 440 * t) * 0.1, 44100,
+                              dtype="int16", realtime=True)
+        for ft in devices:
+            ft.start()
+        mic.start()
+        time.sleep(1.0)  # warm up
+        while mic.read(timeout=0) is not None:  # the warm-up's audio is not in the window
+            pass
+        latencies.clear()
+        c0, w0 = _cpu(), time.monotonic()
+        audio_frames = 0
+        t_end = w0 + SECONDS
+        while time.monotonic() < t_end:
+            for ft in devices:
+                ft.drain()
+            chunk = mic.read(timeout=0.05)
+            if chunk is not None:
+                audio_frames += chunk.frames
+        cpu, wall = _cpu() - c0, time.monotonic() - w0
+        mic.stop()
+        frames = sum(ft.stats.frames_ok for ft in devices)
+        lost = sum(ft.stats.frames_lost for ft in devices)
+    finally:
+        for ft in devices:
+            ft.close()
+        for p in procs:
+            p.terminate()
+            p.wait(timeout=10)
+    lat = np.array(latencies) * 1e3
+    return {
+        "bridge_cpu_percent": round(100 * cpu / wall, 2),
+        "bridge_latency_p99_ms": round(float(np.percentile(lat, 99)), 3),
+        "bridge_latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
+        "bridge_frames_per_s": round(len(latencies) / wall, 1),
+        "bridge_audio_frames_per_s": round(audio_frames / wall, 0),
+        "bridge_frames_lost": lost,
+        "bridge_frames_total": frames,
+    }
+
+
+DESCRIPTION = {
+    "bridge_cpu_percent": ("share of one core for 4 fingertips at 80 Hz + 44.1 kHz audio + a "
+                           "force estimate per frame (affine, numpy)", ("<", 5.0)),
+    "bridge_latency_p99_ms": ("frame's last byte read -> its force estimate in user code, p99",
+                              ("<", 1.0)),
+    "bridge_latency_p50_ms": ("same, median", None),
+    "bridge_frames_per_s": ("frames handled per second (4 x 80 expected)", (">=", 315.0)),
+    "bridge_audio_frames_per_s": ("audio frames captured per second", (">=", 44000.0)),
+    "bridge_frames_lost": ("frames lost over the run", ("<=", 0)),
+    "bridge_frames_total": ("frames received", None),
+}
