@@ -1,0 +1,50 @@
+"""The shared MLP: training converges, ONNX reproduces the float64 reference in float32."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fingertip.models import OnnxModel, to_onnx, train_mlp
+
+
+def test_regression_round_trip(tmp_path):
+    rng = np.random.default_rng(0)
+    x = rng.normal(0, 1e5, (600, 4)) + 3e5   # raw counts: large offsets and scales
+    w = rng.normal(size=(4, 2)) * 1e-5
+    y = x @ w + 0.3 * np.sin(x[:, :2] * 1e-5)
+    m = train_mlp(x, y, hidden=(16, 16), epochs=200, seed=1)
+    ref = m.forward(x)
+    assert np.sqrt(np.mean((ref - y) ** 2)) < 0.1 * y.std()
+    path = to_onnx(m, tmp_path / "f.onnx", metadata={"unit": "N"})
+    run = OnnxModel(path)
+    out = run(x)
+    # float32 inference against the float64 reference: relative to the output scale.
+    assert np.max(np.abs(out - ref)) < 1e-4 * np.abs(ref).max()
+    assert run(x[0]).shape == (2,)
+    assert run.metadata["unit"] == "N" and run.metadata["task"] == "regression"
+    with pytest.raises(ValueError, match="takes 4 features"):
+        run(np.zeros(3))
+
+
+def test_classification_round_trip(tmp_path):
+    rng = np.random.default_rng(1)
+    centres = rng.normal(0, 3, (3, 5))
+    labels = rng.integers(0, 3, 900)
+    x = centres[labels] + rng.normal(0, 1, (900, 5))
+    m = train_mlp(x, labels, hidden=(16,), task="classification", classes=["a", "b", "c"],
+                  epochs=100)
+    p = OnnxModel(to_onnx(m, tmp_path / "c.onnx"))(x)
+    assert np.allclose(p.sum(axis=1), 1, atol=1e-5)
+    assert np.mean(p.argmax(axis=1) == labels) > 0.9
+
+
+def test_bad_inputs_are_refused(tmp_path):
+    with pytest.raises(ValueError, match="NaN"):
+        train_mlp(np.array([[0.0], [np.nan]] * 10), np.zeros(20))
+    with pytest.raises(ValueError, match="shape"):
+        train_mlp(np.zeros(10), np.zeros(10))
+    with pytest.raises(FileNotFoundError):
+        OnnxModel(tmp_path / "missing.onnx")
+    (tmp_path / "bad.onnx").write_bytes(b"not a model")
+    with pytest.raises(ValueError, match="not a usable ONNX model"):
+        OnnxModel(tmp_path / "bad.onnx")
