@@ -333,6 +333,9 @@ def build_parser() -> argparse.ArgumentParser:
     sd.add_argument("--link", help="also make this path a symlink to the pty")
     sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
     sd.set_defaults(func=_cmd_sim_device)
+    from .sim.cli import add_parsers as add_sim_parsers
+
+    add_sim_parsers(smsub)
     return p
 
 

@@ -1,0 +1,166 @@
+"""``fingertip sim dataset calibration|vibration OUT``: datasets from the virtual fingertip.
+
+:func:`add_parsers` adds ``dataset`` to the subparsers of ``fingertip sim``. Handlers return
+an exit code: 0 done, 1 the writing failed part-way (disk full...), 2 a user error (bad
+argument, output folder not empty or not writable), each reported as one clear log line.
+``python -m fingertip.sim.cli dataset ...`` runs it on its own.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+log = logging.getLogger("fingertip")
+
+
+def _int_in(lo: int, hi: int | None = None):
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid integer: {text!r}") from None
+        if v < lo or (hi is not None and v > hi):
+            span = f"between {lo} and {hi}" if hi is not None else f"at least {lo}"
+            raise argparse.ArgumentTypeError(f"must be {span}, not {v}")
+        return v
+    return parse
+
+
+def _float_in(lo: float, hi: float):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+        if not lo <= v <= hi:  # also refuses nan
+            raise argparse.ArgumentTypeError(f"must be between {lo:g} and {hi:g}, not {text}")
+        return v
+    return parse
+
+
+def _report(res, what: str) -> None:
+    for w in res.warnings:
+        log.warning("%s", w)
+    print(f"wrote {what} to {res.out} in {res.wall_s:.1f} s (see {res.out / 'dataset.json'})")
+
+
+def _cmd_calibration(args: argparse.Namespace) -> int:
+    """Simulate the paper's calibration sweep (angles -50..50 deg in 10 deg steps, contact
+    heights 0..5 mm, indentation steps of 1.5 mm to 30 mm, loading and unloading, 8 s pauses)
+    on virtual units: one CSV per unit, in the layout of `fingertip export`, with the true
+    forces."""
+    from .dataset import DatasetError, write_calibration
+
+    try:
+        res = write_calibration(
+            args.out, units=args.units, seed=args.seed, sweeps=args.sweeps,
+            rate_sps=args.rate_sps, samples_per_step=args.samples_per_step,
+            tare_samples=args.tare, max_force_n=args.max_force, params_file=args.params,
+            force=args.force, progress=not args.quiet)
+    except DatasetError as e:
+        log.error("%s", e)
+        return e.code
+    rows = sum(res.meta["rows"].values())
+    _report(res, f"{len(res.files)} unit(s), {rows} rows")
+    return 0
+
+
+def _cmd_vibration(args: argparse.Namespace) -> int:
+    """Simulate labelled contact-microphone recordings: one sub-folder per class of WAV
+    files (materials: the paper's seven; shake: screws / rubber_bands / empty; cups: slides
+    over a 5-cup stack with rim times and robot Z), and a manifest CSV."""
+    from .dataset import DatasetError, write_vibration
+
+    try:
+        res = write_vibration(
+            args.out, kind=args.kind, recordings_per_class=args.recordings_per_class,
+            seconds=args.seconds, seed=args.seed, rate=args.rate, fmt=args.format,
+            params_file=args.params, force=args.force, progress=not args.quiet)
+    except DatasetError as e:
+        log.error("%s", e)
+        return e.code
+    m = res.meta
+    _report(res, f"{m['recordings']} recording{'s' if m['recordings'] > 1 else ''} in "
+                 f"{len(m['classes'])} "
+                 f"class{'es' if len(m['classes']) > 1 else ''} "
+                 f"({', '.join(m['classes'])}) at {m['rate_hz']} Hz")
+    return 0
+
+
+def add_parsers(sub) -> None:
+    """Add ``dataset`` (with ``calibration`` and ``vibration``) to ``sub``, the subparsers
+    of ``fingertip sim``."""
+    from .dataset import DEFAULT_RECORDINGS, FORMATS, KINDS, MAX_RATE_HZ, MIN_RATE_HZ
+
+    d = sub.add_parser("dataset", help="write simulated calibration sweeps or labelled "
+                                       "vibration recordings",
+                       description="Datasets from the virtual fingertip, in the formats of "
+                                   "real recordings (docs/simulation.md).")
+    dsub = d.add_subparsers(dest="dataset_command", metavar="KIND", required=True)
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("out", metavar="OUT", help="output folder (created; must be empty)")
+        p.add_argument("--seed", type=_int_in(0, 2 ** 31 - 1), default=0,
+                       help="seed of the whole dataset (default 0): same seed, same files")
+        p.add_argument("--params", metavar="FILE.toml",
+                       help="another parameter file (default: the shipped fingertip.toml)")
+        p.add_argument("--force", action="store_true",
+                       help="write into a non-empty folder: a dataset this command wrote "
+                            "there is replaced; other files are left alone")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress line")
+
+    c = dsub.add_parser("calibration", help="the paper's calibration sweep, one CSV per unit",
+                        description=_cmd_calibration.__doc__)
+    common(c)
+    c.add_argument("--units", type=_int_in(1, 10_000), default=1,
+                   help="virtual fingertips, seeds SEED..SEED+N-1 (default 1)")
+    c.add_argument("--sweeps", type=_int_in(1, 100), default=1,
+                   help="sweeps per unit, one after the other (default 1; 2 gives a "
+                        "held-out sweep)")
+    c.add_argument("--rate-sps", type=int, choices=(10, 80), default=80,
+                   help="HX711 rate, sets the noise (default 80)")
+    c.add_argument("--samples-per-step", type=_int_in(1, 64), default=1,
+                   help="readings logged at the end of each 8 s pause (default 1)")
+    c.add_argument("--tare", type=_int_in(0, 256), default=16, metavar="N",
+                   help="tare with N readings at zero load first, as `fingertip tare` does "
+                        "(default 16; 0 logs raw counts with their offsets)")
+    c.add_argument("--max-force", type=_float_in(0.1, 50.0), default=5.0, metavar="N",
+                   help="force at full travel, newtons (default 5, the paper's range)")
+    c.set_defaults(func=_cmd_calibration)
+
+    v = dsub.add_parser("vibration", help="labelled recordings, one sub-folder per class",
+                        description=_cmd_vibration.__doc__)
+    common(v)
+    v.add_argument("--kind", choices=KINDS, default="materials",
+                   help="materials (default), shake or cups")
+    v.add_argument("--recordings-per-class", type=_int_in(1, 100_000), metavar="N",
+                   help="default: " + ", ".join(f"{k} {n}" for k, n in
+                                                DEFAULT_RECORDINGS.items()))
+    v.add_argument("--seconds", type=_float_in(0.05, 600.0), metavar="S",
+                   help="length of each recording (default: materials the paper's 16 mm "
+                        "slide at the drawn speed, 0.4-1.6 s; shake 5.6 s; not for cups)")
+    v.add_argument("--rate", type=_int_in(MIN_RATE_HZ, MAX_RATE_HZ), default=44100,
+                   metavar="HZ", help="sample rate of the files (default 44100, the "
+                                      "simulation's; others are resampled from it)")
+    v.add_argument("--format", choices=FORMATS, default="wav",
+                   help="wav (default) or flac, 16-bit PCM")
+    v.set_defaults(func=_cmd_vibration)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m fingertip.sim.cli dataset calibration|vibration OUT ...``"""
+    parser = argparse.ArgumentParser(prog="fingertip sim",
+                                     description="The virtual fingertip's datasets.")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    add_parsers(parser.add_subparsers(dest="sim_command", metavar="SIM_COMMAND",
+                                      required=True))
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
+                        format="%(levelname)s %(name)s: %(message)s")
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
