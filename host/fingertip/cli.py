@@ -11,6 +11,7 @@ from pathlib import Path
 from . import __version__
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
+from .record import cli as record_cli
 from .protocol import (
     PROTOCOL_MAJOR,
     PROTOCOL_MINOR,
@@ -336,6 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .sim.cli import add_parsers as add_sim_parsers
 
     add_sim_parsers(smsub)
+    record_cli.add_parsers(sub)
     return p
 
 

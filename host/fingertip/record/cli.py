@@ -1,0 +1,362 @@
+"""``fingertip record | replay | export``: the command-line side of recordings.
+
+:func:`add_parsers` adds the three subcommands to the ``fingertip`` command's subparsers.
+Handlers return an exit code: 0 done, 1 the recording failed part-way (disk full...),
+2 a user error (wrong port, file, argument), each reported as one clear log line.
+``python -m fingertip.record`` runs these three on their own.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+log = logging.getLogger("fingertip")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+    if not v > 0 or v != v or v == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, not {text}")
+    return v
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {v}")
+    return v
+
+
+def load_force_model(spec: str):
+    """``package.module:function`` -> the callable (counts -> (fx, fy[, fz]))."""
+    mod_name, sep, attr = spec.partition(":")
+    if not sep or not mod_name or not attr:
+        raise ValueError(f"--force-model must look like package.module:function, not {spec!r}")
+    try:
+        mod = importlib.import_module(mod_name)
+    except ImportError as e:
+        raise ValueError(f"cannot import force model module {mod_name!r}: {e}") from e
+    fn = mod
+    for part in attr.split("."):
+        fn = getattr(fn, part, None)
+        if fn is None:
+            raise ValueError(f"{mod_name} has no {attr!r}")
+    if not callable(fn):
+        raise ValueError(f"{spec} is not callable")
+    return fn
+
+
+# --- record -------------------------------------------------------------------------------
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    """Record a fingertip (frames, forces, audio, events) into an MCAP file of ROS 2
+    messages, until --duration passes or Ctrl-C."""
+    from ..audio import AudioError, FileSource, SoundDeviceSource
+    from ..device import Fingertip, FingertipError
+    from ..protocol import ProtocolVersionError
+    from ..transport import DeviceNotFound, TransportError
+    from .recorder import Recorder, RecorderError
+    from .schemas import check_name
+
+    out = Path(args.output)
+    try:
+        check_name(args.name)
+        force_model = load_force_model(args.force_model) if args.force_model else None
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    if out.is_dir():
+        log.error("%s is a directory: give a file name such as %s", out, out / "run.mcap")
+        return 2
+    if out.exists() and out.is_file() and not args.force:
+        log.error("%s already exists (choose another name, or add --force to replace it)",
+                  out)
+        return 2
+
+    audio = None
+    try:
+        if args.audio is not None:
+            dev = int(args.audio) if args.audio.isdigit() else args.audio
+            audio = SoundDeviceSource(dev, args.audio_rate, channels=args.audio_channels,
+                                      dtype=args.audio_dtype)
+        elif args.audio_file:
+            audio = FileSource(args.audio_file, realtime=True)
+    except (AudioError, ValueError) as e:
+        log.error("%s", e)
+        return 2
+
+    try:
+        ft = (Fingertip(serial_number=args.serial, name=args.name) if args.serial
+              else Fingertip(args.port, name=args.name)).open()
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return 2
+    rec = None
+    try:
+        offsets = None
+        if args.tare:
+            offsets = ft.tare(samples=args.tare)
+        rec = Recorder(out, flush_interval=args.flush_interval,
+                       flush_bytes=args.flush_kb * 1024, compression=args.compression,
+                       overwrite=args.force, fsync=args.fsync)
+        rec.start()
+        name = rec.attach(ft, args.name, force_model=force_model)
+        if offsets is not None:
+            rec.write_event(name, "tare", float(args.tare), detail=json.dumps(list(offsets)))
+        if audio is not None:
+            audio.start()
+            rec.record_audio(audio, name)
+        ft.start()
+        rec.write_event(name, "start")
+        return _record_loop(args, ft, rec, audio, name, out)
+    except RecorderError as e:
+        log.error("%s", e)
+        return 2
+    except AudioError as e:
+        log.error("%s", e)
+        return 2
+    except (TransportError, FingertipError) as e:
+        log.error("%s", e)
+        return 2
+    finally:
+        if audio is not None:
+            audio.stop()
+        if rec is not None:
+            rec.close()
+        ft.close()
+
+
+def _record_loop(args, ft, rec, audio, name: str, out: Path) -> int:
+    from ..device import FingertipError
+
+    stop = threading.Event()
+    old = None
+    if threading.current_thread() is threading.main_thread():
+        old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    live = sys.stderr.isatty()
+    t0 = time.monotonic()
+    t_end = t0 + args.duration if args.duration else None
+    print(f"recording {name} from {ft.port} to {out}"
+          + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
+          file=sys.stderr, flush=True)
+    reconnects = ft.stats.reconnects
+    last_print = 0.0
+    try:
+        while not stop.is_set():
+            now = time.monotonic()
+            if t_end is not None and now >= t_end:
+                break
+            if rec.failed:
+                break
+            st = ft.stats
+            if st.reconnects != reconnects:
+                reconnects = st.reconnects
+                rec.write_event(name, "reconnect", float(reconnects))
+            if live and now - last_print >= 0.25:
+                last_print = now
+                s = rec.stats
+                frames = s.accepted.get(f"/fingertip/{name}/raw", 0)
+                audio_s = (s.audio_frames.get(name, 0) / audio.sample_rate) if audio else 0.0
+                print(f"\r{now - t0:7.1f} s  {frames:7d} frames"
+                      + (f"  audio {audio_s:6.1f} s" if audio else "")
+                      + f"  {s.bytes_written / 1e6:7.2f} MB  dropped {s.dropped_total}"
+                      + f"  [{ft.status}]   ", end="", file=sys.stderr, flush=True)
+            stop.wait(0.1 if t_end is None else max(0.0, min(0.1, t_end - now)))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if old is not None:
+            signal.signal(signal.SIGTERM, old)
+        if live:
+            print(file=sys.stderr)
+    elapsed = time.monotonic() - t0
+    try:
+        ft.stop()
+    except FingertipError:
+        pass
+    rec.write_event(name, "stop")
+    if audio is not None:
+        audio.stop()
+    s = rec.close()
+    frames = s.written.get(f"/fingertip/{name}/raw", 0)
+    forces = s.written.get(f"/fingertip/{name}/wrench", 0)
+    chunks = s.written.get(f"/fingertip/{name}/audio", 0)
+    events = s.written.get(f"/fingertip/{name}/events", 0)
+    audio_s = (s.audio_frames.get(name, 0) / audio.sample_rate) if audio else 0.0
+    fst = ft.stats
+    print(f"recorded {elapsed:.1f} s to {out}: {frames} frames, {forces} forces, "
+          f"{audio_s:.1f} s of audio in {chunks} chunks, {events} events; dropped "
+          f"{s.dropped_total}; {s.bytes_written / 1e6:.2f} MB; device: lost "
+          f"{fst.frames_lost}, CRC errors {fst.crc_errors}, reconnects {fst.reconnects}",
+          file=sys.stderr)
+    if rec.error is not None:
+        log.error("%s", rec.error)
+        return 1
+    return 0
+
+
+# --- replay -------------------------------------------------------------------------------
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    """Play a recording through the same frame interface as a live device and print its
+    frames as `fingertip stream` does."""
+    from .reader import RecordingError
+    from .replay import Replay
+
+    try:
+        rp = Replay(args.file, args.name,
+                    speed=None if args.as_fast_as_possible else args.speed)
+    except (RecordingError, ValueError) as e:
+        log.error("%s", e)
+        return 2
+    n = 0
+    try:
+        with rp:
+            rp.start()
+            for f in rp.frames():
+                if args.count is not None and n >= args.count:
+                    break
+                n += 1
+                if args.json:
+                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
+                                      "host_time": f.host_time, "counts": f.counts,
+                                      "timeout_mask": f.timeout_mask,
+                                      "saturation_mask": f.saturation_mask}), flush=True)
+                else:
+                    print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
+                          + " ".join(f"{c:9d}" for c in f.counts)
+                          + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
+                             f"sat={f.saturation_mask:#x}"), flush=True)
+    except KeyboardInterrupt:
+        pass
+    except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
+        sys.stderr.close()
+        return 0
+    note = (" (the recording was cut short: read up to its last complete chunk)"
+            if rp.recording.truncated else "")
+    print(f"{n} frames replayed from {args.file}{note}", file=sys.stderr)
+    return 0
+
+
+# --- export -------------------------------------------------------------------------------
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    """Write a recording's frames (CSV per fingertip), audio (WAV per stream) and events
+    (CSV) into a folder."""
+    from .export import ExportError, export
+    from .reader import RecordingError
+
+    try:
+        res = export(args.file, args.output)
+    except (RecordingError, ExportError) as e:
+        log.error("%s", e)
+        return 2
+    for p in res.files:
+        print(p)
+    parts = [f"{n}: {c} frames" for n, c in res.frames.items()]
+    parts += [f"{n}: {c} audio frames" + (f" ({res.audio_gap_frames[n]} lost, zero-filled)"
+                                          if res.audio_gap_frames.get(n) else "")
+              for n, c in res.audio_frames.items()]
+    parts.append(f"{res.events} events")
+    note = ("; the recording was cut short: exported up to its last complete chunk"
+            if res.truncated else "")
+    print(f"exported {args.file} to {args.output}: " + ", ".join(parts) + note,
+          file=sys.stderr)
+    return 0
+
+
+# --- parsers ------------------------------------------------------------------------------
+
+def add_parsers(sub) -> None:
+    """Add ``record``, ``replay`` and ``export`` to ``sub`` (from ``add_subparsers()``)."""
+    r = sub.add_parser("record", help="record a fingertip (and its microphone) to MCAP",
+                       description=_cmd_record.__doc__)
+    g = r.add_mutually_exclusive_group(required=True)
+    g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
+    g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
+    r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
+                   help="the recording to write")
+    r.add_argument("--duration", type=_positive_float, metavar="S",
+                   help="stop after S seconds (default: at Ctrl-C)")
+    a = r.add_mutually_exclusive_group()
+    a.add_argument("--audio", metavar="DEVICE",
+                   help="also record this sound card (index or part of its name)")
+    a.add_argument("--audio-file", metavar="WAV",
+                   help="also record this WAV/FLAC file as the microphone, in real time")
+    r.add_argument("--audio-rate", type=_positive_float, default=44100.0,
+                   help="sample rate for --audio (default 44100)")
+    r.add_argument("--audio-channels", type=_positive_int, default=1,
+                   help="channels for --audio (default 1)")
+    r.add_argument("--audio-dtype", choices=("int16", "int32", "float32"), default="int16",
+                   help="sample format for --audio (int32 for 24-bit cards; default int16)")
+    r.add_argument("--name", default="fingertip",
+                   help="the fingertip's name in topic names /fingertip/NAME/... "
+                        "(default: fingertip)")
+    r.add_argument("--tare", type=_positive_int, metavar="N", help="tare with N samples first")
+    r.add_argument("--force-model", metavar="MODULE:FUNCTION",
+                   help="a Python callable counts -> (fx, fy[, fz]) in newtons; its forces "
+                        "are recorded as geometry_msgs/WrenchStamped")
+    r.add_argument("--flush-interval", type=_positive_float, default=0.5, metavar="S",
+                   help="write the chunk in progress every S seconds (default 0.5): at most "
+                        "this much is lost if the recorder is killed")
+    r.add_argument("--flush-kb", type=_positive_int, default=1024, metavar="KB",
+                   help="... or when it reaches KB kilobytes (default 1024)")
+    r.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd",
+                   help="chunk compression (default zstd)")
+    r.add_argument("--fsync", action="store_true",
+                   help="also force every flushed chunk onto the disk (against power loss)")
+    r.add_argument("--force", action="store_true", help="replace FILE if it exists")
+    r.set_defaults(func=_cmd_record)
+
+    p = sub.add_parser("replay", help="play a recording as if it were a live device",
+                       description=_cmd_replay.__doc__)
+    p.add_argument("file", metavar="FILE.mcap", help="a recording")
+    s = p.add_mutually_exclusive_group()
+    s.add_argument("--speed", type=_positive_float, default=1.0, metavar="X",
+                   help="playback speed (default 1.0 = real time)")
+    s.add_argument("--as-fast-as-possible", action="store_true",
+                   help="no pacing: as fast as the frames are printed")
+    p.add_argument("--name", help="which fingertip, if the file holds several")
+    p.add_argument("--count", type=int, help="stop after N frames")
+    p.add_argument("--json", action="store_true", help="one JSON object per frame")
+    p.set_defaults(func=_cmd_replay)
+
+    e = sub.add_parser("export", help="write a recording as CSV and WAV files",
+                       description=_cmd_export.__doc__)
+    e.add_argument("file", metavar="FILE.mcap", help="a recording")
+    e.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="folder for the files (created if needed)")
+    e.set_defaults(func=_cmd_export)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m fingertip.record record|replay|export ...``"""
+    parser = argparse.ArgumentParser(prog="fingertip",
+                                     description="Record, replay and export fingertip data.")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    add_parsers(parser.add_subparsers(dest="command", metavar="COMMAND"))
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
+                        format="%(levelname)s %(name)s: %(message)s")
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
