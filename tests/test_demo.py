@@ -15,6 +15,17 @@ def test_demo_on_the_firmware(tmp_path):
     assert r.stats["frames_lost"] == 0 and r.stats["crc_errors"] == 0
     assert r.stats["frames"] > 80 * 12 * 0.95
     assert r.stats["audio_overflows"] == 0
+    # The recording holds the frames, the audio and the events, and replays as a device.
+    from fingertip.record import Recording, Replay
+
+    rec = Recording(r.recording)
+    assert rec.complete and r.stats["recording_dropped"] == 0
+    topics = set(rec.channels())
+    assert {"/fingertip/index/raw", "/fingertip/index/audio",
+            "/fingertip/index/events"} <= topics
+    with Replay(r.recording, speed=None) as rp:
+        rp.start()
+        assert len(list(rp.frames(timeout=2.0))) >= len(r.frames) - 5
     makes = [e.time for e in r.events if e.kind == "contact_make"]
     breaks = [e.time for e in r.events if e.kind == "contact_break"]
     assert len(makes) == len(breaks) == 4  # a press, two slides, the cup slide

@@ -244,6 +244,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
           f"(overruns {st['audio_overflows']})")
     for e in r.events:
         print(f"event        {e.time:7.3f} s  {e.kind}")
+    print(f"recording:   {r.recording} ({st['recording_messages']} messages, dropped "
+          f"{st['recording_dropped']}); try `fingertip replay {r.recording}`")
     print(f"summary:     {r.png}")
     return 0
 

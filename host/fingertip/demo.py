@@ -21,6 +21,7 @@ from .audio import SimulatedSource
 from .device import Fingertip, Frame
 from .events import Event, contact_intervals, vibration_onsets
 from .plots import session_summary
+from .record import Recorder
 from .sim import VirtualFirmware
 from .sim.physics import CupStackSlide, Press, Script, Slide, VirtualStrainSensor, simulate
 
@@ -48,6 +49,7 @@ class DemoResult:
     fs: float
     events: list[Event]
     png: Path
+    recording: Path
     device: str
     stats: dict = field(default_factory=dict)
 
@@ -151,10 +153,13 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     ft, arm, stop_device, what = make(sensor, scene, duration)
     print(f"virtual fingertip: {what} on {ft.port}", file=sys.stderr)
     frames: list[Frame] = []
+    rec = Recorder(out / "demo.mcap", overwrite=True).start()
     try:
         offsets = ft.tare(samples=16)
         print("tared: offsets " + ", ".join(map(str, offsets)), file=sys.stderr)
         ft.add_callback(frames.append)
+        rec.attach(ft, "index")
+        rec.write_info("index", ft.info)
         ft.start()
         host_start = arm()
 
@@ -173,6 +178,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
         def capture() -> None:
             for chunk in mic.chunks():
                 chunks.append(chunk)
+                rec.write_audio("index", chunk)
                 if stop.is_set():
                     break
 
@@ -202,6 +208,9 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
                  "crc_errors": ft.stats.crc_errors,
                  "audio_frames": int(sum(c.frames for c in chunks)),
                  "audio_overflows": mic.stats.overruns_frames}
+    except BaseException:
+        rec.close()
+        raise
     finally:
         ft.close()
         stop_device()
@@ -214,12 +223,17 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     audio_t0 = chunks[0].host_time - host_start if chunks else 0.0
     events = contact_intervals(t_force, counts) + vibration_onsets(audio, fs, t0=audio_t0)
     events.sort(key=lambda e: e.time)
+    # The events go into the recording too, on its host clock.
+    rec.write_events("index", [Event(e.time + host_start, e.kind, e.value) for e in events])
+    rec_stats = rec.close()
+    stats["recording_messages"] = int(sum(rec_stats.written.values()))
+    stats["recording_dropped"] = int(sum(rec_stats.dropped.values()))
     truth = _truth(scene)
     png = session_summary(out / "demo_summary.png", force_t=t_force, counts=counts, audio=audio,
                           fs=fs, audio_t0=audio_t0, events=events, truth=truth,
                           title=f"virtual fingertip demo, {what}: press; slide over coarse "
                                 "fabric, copper tape; slide down a cup stack")
-    return DemoResult(frames, audio, fs, events, png, what, stats)
+    return DemoResult(frames, audio, fs, events, png, out / "demo.mcap", what, stats)
 
 
 def _truth(scene: Script) -> dict[str, list[float]]:
