@@ -1,0 +1,64 @@
+"""Pair a fingertip's serial port with its USB sound card, so that a hand of four fingertips
+with four sound cards needs no device numbers.
+
+The readout board puts the Uno and the sound card behind one USB hub, so the two hang off
+the same hub port: the Uno at ``1-2.1``, its sound card at ``1-2.3``. Pairing goes by that
+physical path (stable across reboots, unlike ``/dev/ttyACM*`` and ALSA card numbers), or by
+an explicit USB serial number of the card when the user knows it.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..audio import AudioDeviceNotFound, find_alsa_card, usb_hub_of, usb_path_of_alsa_card
+from ..transport import PortInfo
+
+
+class PairingError(LookupError):
+    """No sound card, or several, could be paired with the port."""
+
+
+def sound_card_for(port: PortInfo, *, card_serial: str | None = None,
+                   sysfs_root: str | os.PathLike = "/sys") -> int:
+    """The ALSA card number of the sound card that belongs with ``port``.
+
+    With ``card_serial``: the card with that USB serial number. Otherwise: the one USB
+    sound card behind the same hub as the port's device.
+    """
+    if card_serial is not None:
+        try:
+            return find_alsa_card(usb_serial=card_serial, sysfs_root=sysfs_root)
+        except AudioDeviceNotFound as e:
+            raise PairingError(str(e)) from e
+    if not port.location:
+        raise PairingError(f"{port.device} is not a USB device: pair its sound card by "
+                           "serial number (card_serial=...)")
+    hub = usb_hub_of(port.location)
+    if hub is None:
+        raise PairingError(f"{port.device} (USB {port.location}) is not behind a hub, so "
+                           "nothing ties a sound card to it: pair by card serial number")
+    cls = Path(sysfs_root) / "class" / "sound"
+    hits, seen = [], []
+    for card in sorted(cls.glob("card*")) if cls.is_dir() else []:
+        try:
+            n = int(card.name[4:])
+        except ValueError:
+            continue
+        path = usb_path_of_alsa_card(n, sysfs_root)
+        seen.append(f"card{n} (USB {path or '-'})")
+        if path is not None and usb_hub_of(path) == hub:
+            hits.append(n)
+    if len(hits) == 1:
+        return hits[0]
+    listing = ", ".join(seen) or "no sound cards"
+    if not hits:
+        raise PairingError(f"no USB sound card behind hub {hub} with {port.device}; "
+                           f"cards: {listing}")
+    raise PairingError(f"{len(hits)} sound cards behind hub {hub} with {port.device}: "
+                       f"{listing}; pair by card serial number")
+
+
+def alsa_device_name(card: int) -> str:
+    """The name PortAudio lists the card's first capture device under (``hw:N,0``)."""
+    return f"hw:{int(card)},0"
