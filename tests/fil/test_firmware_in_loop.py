@@ -191,3 +191,36 @@ def test_decoder_in_the_stream_matches_pack_frame(make_sim):
     with open_fingertip(sim) as ft:
         info = ft.get_info()
         assert pack_frame(info)[0] == 0x82
+
+
+def test_reconnects_within_1s_when_the_harness_restarts(make_sim, tmp_path):
+    """The port vanishes (harness killed) and comes back under the same name (a new harness
+    on the same link): the bridge reconnects by itself, restores rate, gain and offsets."""
+    link = tmp_path / "ttyFT"
+    sim = make_sim(4, link=link)
+    for c in range(4):
+        sim.set(c, 10_000 * (c + 1))
+    ft = open_fingertip(sim, port=link)
+    try:
+        ft.set_rate(80, 2)
+        ft.set_gain(64)
+        offsets = ft.tare(samples=8)
+        ft.start()
+        frames_after(ft, 5)
+        sim.close()
+        assert wait_for(lambda: ft.status == "reconnecting", 3)
+        sim2 = make_sim(4, link=link)
+        for c in range(4):
+            sim2.set(c, 10_000 * (c + 1))
+        t0 = time.monotonic()
+        sim2.go()
+        assert wait_for(lambda: ft.status == "connected", 1.0)
+        assert time.monotonic() - t0 < 1.0
+        frames = frames_after(ft, 5, timeout=10)
+        info = ft.get_info()
+        assert (info.decimation, info.gain) == (2, 64)
+        assert info.tare_offsets == offsets and info.streaming
+        assert all(f.counts == (0, 0, 0, 0) for f in frames[2:])
+        assert ft.stats.reconnects == 1
+    finally:
+        ft.close()

@@ -235,9 +235,10 @@ class FirmwareSim:
         return self.command("chips")["chips"]
 
 
-def open_fingertip(sim: FirmwareSim, **kwargs: Any):
-    """A :class:`fingertip.Fingertip` on the harness's pty, opened before the firmware boots
-    (pyserial's open() flushes input, which would eat the boot message)."""
+def open_fingertip(sim: FirmwareSim, port: str | Path | None = None, **kwargs: Any):
+    """A :class:`fingertip.Fingertip` on the harness's pty (or ``port``, e.g. its ``link``),
+    opened before the firmware boots (pyserial's open() flushes input, which would eat the
+    boot message)."""
     from ..device import Fingertip  # the device layer sits above sim: import at use
     from ..transport import open_serial
 
@@ -251,4 +252,4 @@ def open_fingertip(sim: FirmwareSim, **kwargs: Any):
             sim.go()
         return stream
 
-    return Fingertip(sim.pty, open_stream=factory, **kwargs).open()
+    return Fingertip(str(port or sim.pty), open_stream=factory, **kwargs).open()
