@@ -209,13 +209,13 @@ def test_reconnects_within_1s_when_the_harness_restarts(make_sim, tmp_path):
         frames_after(ft, 5)
         sim.close()
         assert wait_for(lambda: ft.status == "reconnecting", 3)
-        sim2 = make_sim(4, link=link)
-        for c in range(4):
-            sim2.set(c, 10_000 * (c + 1))
         t0 = time.monotonic()
-        sim2.go()
+        sim2 = make_sim(4, link=link)  # the port is back as soon as its link exists
         assert wait_for(lambda: ft.status == "connected", 1.0)
         assert time.monotonic() - t0 < 1.0
+        for c in range(4):
+            sim2.set(c, 10_000 * (c + 1))
+        sim2.go()
         frames = frames_after(ft, 5, timeout=10)
         info = ft.get_info()
         assert (info.decimation, info.gain) == (2, 64)
