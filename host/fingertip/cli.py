@@ -151,7 +151,19 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
     import time
 
+    plot = None
+    if args.plot or args.plot_png:
+        from .live_plot import LivePlot, NoDisplay
+
+        try:
+            plot = LivePlot(4, png=args.plot_png)  # channels fixed below, once known
+        except NoDisplay as e:
+            log.error("%s", e)
+            return 2
     with _open(args) as ft:
+        if plot is not None and len(plot.lines) != ft.channels:
+            plot.close()
+            plot = LivePlot(ft.channels, png=args.plot_png)
         if args.rate or args.decimation:
             ft.set_rate(args.rate or ft.info.rate_sps, args.decimation or 1)
         if args.gain:
@@ -172,6 +184,8 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                     continue
                 n += 1
                 first = first or f
+                if plot is not None:
+                    plot.add((f.device_time_us - first.device_time_us) / 1e6, f.counts)
                 if args.json:
                     print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
                                       "host_time": f.host_time, "counts": f.counts,
@@ -195,6 +209,8 @@ def _cmd_stream(args: argparse.Namespace) -> int:
         finally:
             if live:
                 print()
+            if plot is not None:
+                plot.close()
             try:
                 ft.stop()
             except FingertipError:
@@ -317,6 +333,9 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--decimation", type=int, help="keep every n-th conversion")
     st.add_argument("--gain", type=int, choices=(128, 64, 32))
     st.add_argument("--tare", type=int, metavar="N", help="tare with N samples first")
+    st.add_argument("--plot", action="store_true", help="a live plot in a window")
+    st.add_argument("--plot-png", metavar="FILE",
+                    help="a live plot written to FILE every second (no screen needed)")
     st.set_defaults(func=_cmd_stream)
 
     dm = sub.add_parser("demo", help="run the whole chain on a virtual fingertip",

@@ -72,3 +72,15 @@ def test_sim_device_serves_a_fingertip(tmp_path):
     assert p.returncode == 0
     time.sleep(0.1)
     assert not link.exists()
+
+
+def test_stream_live_plot_to_png_and_no_display_error(port, tmp_path):
+    png = tmp_path / "live.png"
+    r = run("stream", "--port", port, "--count", "100", "--plot-png", str(png))
+    assert r.returncode == 0, r.stderr
+    assert png.exists() and png.stat().st_size > 5_000
+    import os
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    r = subprocess.run([EXE, "stream", "--port", port, "--count", "1", "--plot"],
+                       capture_output=True, text=True, timeout=30, env=env)
+    assert r.returncode == 2 and "--plot-png" in r.stderr
