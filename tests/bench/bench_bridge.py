@@ -3,8 +3,8 @@
 The four virtual fingertips run in their own processes (`fingertip sim device`, the
 firmware's twin on a pty), so this process's CPU time is the bridge alone: four readers
 decoding and mapping clocks, one simulated sound card delivering 441-frame blocks into the
-capture ring, and a force estimate per frame in the frame callback. The force model here is
-an affine map in numpy (calibrated force models in ONNX come with the models issue).
+capture ring, and a force estimate per frame in the frame callback: the MLP force model
+(ONNX, onnxruntime, one thread) fitted on a simulated calibration sweep.
 Latency is from the moment the read that completed a frame returned to the moment the
 force estimate is available to user code (the end of the callback chain).
 """
@@ -21,6 +21,9 @@ import numpy as np
 
 from fingertip import Fingertip
 from fingertip.audio import SimulatedSource
+from fingertip.models.calibrate import fit_calibration, from_arrays
+from fingertip.models.force import ForceModel
+from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 
 SECONDS = 20.0
 EXE = str(Path(sys.executable).with_name("fingertip"))
@@ -31,8 +34,17 @@ def _cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
+def _force_model(tmp: Path) -> ForceModel:
+    sw = calibration_sweep(VirtualStrainSensor(0), seed=0)
+    data = from_arrays(sw.counts - sw.counts[:16].mean(axis=0), sw.fx, sw.fy,
+                       angle_deg=sw.angle_deg, height_mm=sw.height_mm, trial=sw.trial)
+    fit_calibration(data, tmp, models="mlp16x16", epochs=200, plot=False)
+    return ForceModel(tmp / "force.onnx")
+
+
 def run() -> dict[str, float]:
     tmp = Path(tempfile.mkdtemp(prefix="bench-bridge-"))
+    model = _force_model(tmp)
     procs = []
     devices = []
     try:
@@ -42,13 +54,12 @@ def run() -> dict[str, float]:
                                  stdout=subprocess.PIPE, text=True)
             p.stdout.readline()
             procs.append(p)
-        weights = np.random.default_rng(0).normal(size=(4, 2)) * 1e-5  # counts -> N
         latencies: list[float] = []
         forces = np.zeros(2)
 
         def on_frame(frame) -> None:
             nonlocal forces
-            forces = np.asarray(frame.counts, dtype=np.float64) @ weights
+            forces = model.estimate(frame.counts)
             latencies.append(time.monotonic() - frame.arrival_time)
 
         for k in range(4):
@@ -96,8 +107,8 @@ def run() -> dict[str, float]:
 
 
 DESCRIPTION = {
-    "bridge_cpu_percent": ("share of one core for 4 fingertips at 80 Hz + 44.1 kHz audio + a "
-                           "force estimate per frame (affine, numpy)", ("<", 5.0)),
+    "bridge_cpu_percent": ("share of one core for 4 fingertips at 80 Hz + 44.1 kHz audio + an "
+                           "ONNX MLP force estimate per frame", ("<", 5.0)),
     "bridge_latency_p99_ms": ("frame's last byte read -> its force estimate in user code, p99",
                               ("<", 1.0)),
     "bridge_latency_p50_ms": ("same, median", None),

@@ -105,6 +105,10 @@ class ForceModel:
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = threads
         opts.inter_op_num_threads = 1
+        # No spin-waiting: a frame arrives every few ms, and spinning threads between runs
+        # would burn a core's worth of cycles for nothing.
+        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+        opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
         opts.log_severity_level = 3
         try:
             self._session = ort.InferenceSession(str(path), opts,

@@ -246,6 +246,10 @@ class OnnxModel:
         opts = ort.SessionOptions()
         opts.intra_op_num_threads = threads  # a control loop wants one predictable core
         opts.inter_op_num_threads = 1
+        # No spin-waiting: a frame arrives every few ms, and spinning threads between runs
+        # would burn a core's worth of cycles for nothing.
+        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+        opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
         try:
             self.session = ort.InferenceSession(str(path), opts,
                                                 providers=["CPUExecutionProvider"])
