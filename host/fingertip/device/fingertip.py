@@ -13,7 +13,7 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ..protocol import (
@@ -22,6 +22,7 @@ from ..protocol import (
     SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, require_compatible,
 )
 from ..transport import ByteStream, TransportError, find_port, open_serial
+from .frames import FrameSource
 from .timesync import ClockSync
 
 log = logging.getLogger(__name__)
@@ -121,7 +122,7 @@ class Settings:
     streaming: bool = False
 
 
-class Fingertip:
+class Fingertip(FrameSource):
     """One fingertip device.
 
     Open it by ``port`` (``/dev/ttyACM0``, a pty path, a by-id link) or by the USB
@@ -290,30 +291,12 @@ class Fingertip:
                 self._cond.wait(timeout)
             return self._queue.popleft() if self._queue else None
 
-    def frames(self, timeout: float | None = None) -> Iterator[Frame]:
-        """Iterate over frames until ``timeout`` passes without one, or the device closes."""
-        while True:
-            f = self.read(timeout)
-            if f is None:
-                return
-            yield f
-
-    def __iter__(self) -> Iterator[Frame]:
-        return self.frames()
-
     def drain(self) -> list[Frame]:
         """All frames queued so far, without waiting."""
         with self._cond:
             out = list(self._queue)
             self._queue.clear()
         return out
-
-    def add_callback(self, fn: Callable[[Frame], None]) -> None:
-        """Call ``fn(frame)`` from the reader thread for every frame (keep it short)."""
-        self._callbacks.append(fn)
-
-    def remove_callback(self, fn: Callable[[Frame], None]) -> None:
-        self._callbacks.remove(fn)
 
     # --- commands -------------------------------------------------------------------------
 

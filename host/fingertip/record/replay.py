@@ -29,7 +29,7 @@ import os
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +37,7 @@ import numpy as np
 
 from ..audio import AudioStats, RingBuffer, RingSource
 from ..device import BridgeStats, Frame, NotConnected
+from ..device.frames import FrameSource
 from ..protocol import Info, message_from_dict
 from . import schemas as S
 from .reader import Recording, RecordingError
@@ -134,7 +135,7 @@ class ReplayAudioSource(RingSource):
             self._set_finished()
 
 
-class Replay:
+class Replay(FrameSource):
     """Play fingertip ``name`` of the recording at ``path`` (see the module's notes).
 
     >>> with Replay("run.mcap", speed=None) as ft:            # doctest: +SKIP
@@ -290,29 +291,12 @@ class Replay:
                 return f
             return None
 
-    def frames(self, timeout: float | None = None) -> Iterator[Frame]:
-        while True:
-            f = self.read(timeout)
-            if f is None:
-                return
-            yield f
-
-    def __iter__(self) -> Iterator[Frame]:
-        return self.frames()
-
     def drain(self) -> list[Frame]:
         with self._cond:
             out = list(self._queue)
             self._queue.clear()
             self._cond.notify_all()
         return out
-
-    def add_callback(self, fn: Callable[[Frame], None]) -> None:
-        """Call ``fn(frame)`` from the replay thread for every frame (keep it short)."""
-        self._callbacks.append(fn)
-
-    def remove_callback(self, fn: Callable[[Frame], None]) -> None:
-        self._callbacks.remove(fn)
 
     def add_wrench_callback(self, fn: Callable[[Wrench], None]) -> None:
         """Recorded forces (``/fingertip/<name>/wrench``), as they come."""
