@@ -1,6 +1,7 @@
 """What every source of frames offers user code: a live device, a replayed recording."""
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
@@ -8,14 +9,15 @@ if TYPE_CHECKING:
     from .fingertip import Frame
 
 
-class FrameSource:
+class FrameSource(ABC):
     """Iteration and callbacks over ``read()``; subclasses set ``self._callbacks = []`` and
     implement ``read(timeout) -> Frame | None``."""
 
     _callbacks: list[Callable[[Frame], None]]
 
-    def read(self, timeout: float | None = None) -> Frame | None:  # pragma: no cover
-        raise NotImplementedError
+    @abstractmethod
+    def read(self, timeout: float | None = None) -> Frame | None:
+        """The next frame, or None after ``timeout`` seconds (or at the end)."""
 
     def frames(self, timeout: float | None = None) -> Iterator[Frame]:
         """Iterate over frames until ``timeout`` passes without one, or the source ends."""
