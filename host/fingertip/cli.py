@@ -11,7 +11,7 @@ from pathlib import Path
 from . import __version__
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
-from .models import calibration_cli
+from .models import calibration_cli, classifier_cli
 from .record import cli as record_cli
 from .protocol import (
     PROTOCOL_MAJOR,
@@ -361,6 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_sim_parsers(smsub)
     record_cli.add_parsers(sub)
     calibration_cli.add_parsers(sub)
+    classifier_cli.add_parsers(sub)
     return p
 
 

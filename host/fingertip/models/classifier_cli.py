@@ -1,0 +1,348 @@
+"""``fingertip train material|shake FOLDER`` and ``fingertip classify material|shake MODEL``.
+
+:func:`add_parsers` adds ``train`` and ``classify`` to the top-level subparsers of
+``fingertip``. Handlers return an exit code: 0 done, 1 failed part-way, 2 a user error (bad
+folder, file, model or device), each reported as one clear log line. Heavy modules (scipy,
+onnx, onnxruntime) are imported only when a command runs.
+``python -m fingertip.models.classifier_cli train material FOLDER`` runs it on its own.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import sys
+from collections.abc import Sequence
+
+log = logging.getLogger("fingertip")
+
+
+def _positive(kind: type = float, lo: float = 0.0, hi: float = math.inf):
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+        if not lo < v <= hi:  # also refuses nan
+            raise argparse.ArgumentTypeError(f"must be above {lo:g}" + (
+                f" and at most {hi:g}" if hi < math.inf else "") + f", not {text}")
+        return v
+    return parse
+
+
+def _hidden(text: str) -> tuple[int, ...]:
+    try:
+        out = tuple(int(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"hidden sizes are integers like 32 or 64,32, not "
+                                         f"{text!r}") from None
+    if not out or any(v < 1 or v > 4096 for v in out):
+        raise argparse.ArgumentTypeError("hidden sizes must be 1..4096")
+    return out
+
+
+def _user_errors():
+    from ..audio import AudioError
+    from .classify import DatasetError, ModelError
+    from .features import FeatureError
+    return (DatasetError, ModelError, FeatureError, AudioError, FileNotFoundError,
+            LookupError)
+
+
+def _print_evaluation(ev, indent: str = "  ") -> None:
+    w = ev.windows
+    print(f"{indent}accuracy: {100 * w.accuracy:.2f} % of {w.n} test windows; "
+          f"{100 * ev.recordings.accuracy:.1f} % of {ev.recordings.n} test recordings "
+          f"(majority vote)")
+    rec, prec = w.recall, w.precision
+    width = max(len(c) for c in w.classes)
+    print(f"{indent}{'class':<{width}}  recall  precision  windows")
+    for i, c in enumerate(w.classes):
+        print(f"{indent}{c:<{width}}  {100 * rec[c]:5.1f} %  {100 * prec[c]:6.1f} %  "
+              f"{int(w.confusion[i].sum()):7d}")
+    a, b, k = w.most_confused()
+    if k:
+        print(f"{indent}most confused: {a} <-> {b} ({k} windows)")
+
+
+def _split_line(split: dict) -> str:
+    per = split["per_class"]
+    if split.get("cross_validation_folds"):
+        n = sum(v["recordings"] for v in per.values())
+        return (f"{split['cross_validation_folds']}-fold cross-validation by recording: each "
+                f"of the {n} recordings tested once by a model that never saw it; the "
+                f"exported model is trained on all of them")
+    tr = sum(v["train"] for v in per.values())
+    te = sum(v["test"] for v in per.values())
+    va = sum(v.get("validation", 0) for v in per.values())
+    extra = f", {va} for validation" if va else ""
+    return (f"split by recording: {tr} train{extra}, {te} test recordings "
+            f"(no recording on both sides; per class in report.json)")
+
+
+def _cmd_train_material(args: argparse.Namespace) -> int:
+    """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
+    recordings, any rate from 1 to 384 kHz): 0.5 s windows, gain-free log band spectra,
+    an MLP exported to ONNX, evaluated on held-out recordings."""
+    from .classify import json_safe
+    from .features import FeatureConfig
+    from .material import train_material
+
+    try:
+        r = train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
+                           features=FeatureConfig(canonical_rate=args.canonical_rate),
+                           hidden=args.hidden, test_fraction=args.test_fraction,
+                           seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
+                           epochs=args.epochs, folds=args.folds)
+    except _user_errors() as e:
+        log.error("%s", e)
+        return 2
+    if args.json:
+        print(json.dumps(json_safe(r.report)))
+        return 0
+    d = r.report["dataset"]
+    print(f"dataset: {sum(d['recordings'].values())} recordings in {len(d['classes'])} "
+          f"classes at {', '.join(f'{x:g}' for x in d['rates_hz'])} Hz; bands "
+          f"{r.report['features']['f_lo']:g}-{r.report['features']['f_hi']:g} Hz")
+    print(_split_line(r.report["split"]))
+    _print_evaluation(r.evaluation)
+    print("wrote " + ", ".join(str(p) for p in r.files))
+    return 0
+
+
+def _cmd_train_shake(args: argparse.Namespace) -> int:
+    """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
+    (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
+    window and per shake (majority vote) on held-out recordings, with their costs."""
+    from .classify import json_safe
+    from .features import FeatureConfig
+    from .shake import train_shake
+
+    models = ("cnn", "mlp") if args.model == "both" else (args.model,)
+    try:
+        r = train_shake(args.folder, args.out, models=models, step_s=args.step,
+                        features=FeatureConfig(canonical_rate=args.canonical_rate),
+                        test_fraction=args.test_fraction, seed=args.seed,
+                        rate_hint=args.rate_hint, max_hz=args.max_hz,
+                        cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
+    except _user_errors() as e:
+        log.error("%s", e)
+        return 2
+    if args.json:
+        print(json.dumps(json_safe(r.report)))
+        return 0
+    print(_split_line(r.report["split"]))
+    for name, res in r.results.items():
+        print(f"{name.upper()}: {res.cost['parameters']:,} parameters, trained in "
+              f"{res.cost['train_s']:.1f} s, {res.cost['latency_model_ms']['p50']:.3f} ms "
+              "per prediction (onnxruntime, p50)")
+        _print_evaluation(res.evaluation)
+    print(f"verdict: {r.verdict}")
+    print("wrote " + ", ".join(str(p) for p in r.files))
+    return 0
+
+
+def _simulated_source(name: str, kind: str, duration: float | None, realtime: bool,
+                      seed: int):
+    import numpy as np
+
+    from ..audio import SimulatedSource
+    from ..sim.physics import BOX_CONTENTS, BoxShake, Slide, material, simulate
+
+    if kind == "shake" or name in BOX_CONTENTS:
+        if name not in BOX_CONTENTS:
+            raise LookupError(f"--simulate for shake takes one of {', '.join(BOX_CONTENTS)}")
+        scene = BoxShake(name, duration=duration or 5.6, seed=seed)
+    else:
+        try:
+            m = material(name)
+        except ValueError as e:
+            raise LookupError(str(e)) from None
+        scene = Slide(m.name, duration=duration or 3.0, seed=seed)
+    audio = simulate(scene, seed=seed).audio
+    assert audio is not None
+    x = audio.samples
+    fs = audio.fs
+
+    def func(t: np.ndarray) -> np.ndarray:
+        return x[np.minimum(np.rint(t * fs).astype(np.intp), len(x) - 1)]
+
+    return SimulatedSource(func, fs, realtime=realtime, duration=len(x) / fs,
+                           name=f"simulated {scene.name}({name})")
+
+
+def _cmd_classify(args: argparse.Namespace) -> int:
+    """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
+    paired with a fingertip's serial port, or the virtual fingertip) with a model made by
+    `fingertip train`: one prediction per window with its time, then the majority vote."""
+    from .classify import Classification, VibrationClassifier
+
+    sources = [s for s in (args.file, args.audio, args.port, args.simulate) if s is not None]
+    if len(sources) != 1:
+        log.error("give exactly one of FILE, --audio DEVICE, --port PORT or --simulate NAME")
+        return 2
+    try:
+        clf = VibrationClassifier(args.model, kind=args.kind)
+        if args.file is not None:
+            result = clf.classify(args.file, rate=args.rate)
+            preds = result.predictions
+            for p in preds:
+                _show(p, args.json)
+        else:
+            if args.simulate is not None:
+                src = _simulated_source(args.simulate, args.kind, args.duration,
+                                        not args.fast, args.seed)
+            else:
+                from ..audio import SoundDeviceSource
+                from .classify import sound_card_for_port
+
+                device = args.audio
+                if args.port is not None:
+                    device = sound_card_for_port(args.port)
+                elif device.isdigit():
+                    device = int(device)
+                src = SoundDeviceSource(device, args.samplerate, channels=args.channel + 1,
+                                        dtype="float32")
+            preds = []
+            try:
+                for p in clf.stream(src, duration=args.duration, channel=args.channel):
+                    preds.append(p)
+                    _show(p, args.json)
+            except KeyboardInterrupt:
+                pass
+            finally:
+                src.stop()
+            result = Classification(preds, clf.classes)
+    except _user_errors() as e:
+        log.error("%s", e)
+        return 2
+    vote = result.vote
+    shares = result.shares()
+    if args.json:
+        print(json.dumps({"vote": vote, "predictions": len(preds),
+                          "shares": {k: round(v, 4) for k, v in shares.items()}}))
+    elif vote is None:
+        print("no prediction (the audio ended before one window)")
+    else:
+        clipped = sum(p.clipped for p in preds)
+        print(f"vote: {vote} ({100 * shares[vote]:.0f} % of {len(preds)} predictions)"
+              + (f"; {clipped} window(s) clipped" if clipped else ""))
+    return 0
+
+
+def _show(p, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(p.to_dict()), flush=True)
+        return
+    level = f"{p.level_db:6.1f} dB" if math.isfinite(p.level_db) else "silence"
+    print(f"{p.t_start:8.2f}-{p.t_end:7.2f} s  {p.label:<18} {100 * p.probability:5.1f} %  "
+          f"{level}" + ("  CLIPPED" if p.clipped else ""), flush=True)
+
+
+def add_parsers(sub) -> None:
+    """Add ``train`` and ``classify`` (each with ``material`` and ``shake``) to ``sub``, the
+    top-level subparsers of ``fingertip``."""
+    t = sub.add_parser("train", help="train a vibration classifier (material or shake) on "
+                                     "a folder of labelled recordings",
+                       description="Train on a folder with one sub-folder per class of "
+                                   "recordings (docs/classifiers.md).")
+    tsub = t.add_subparsers(dest="train_command", metavar="KIND", required=True)
+
+    def common(p: argparse.ArgumentParser, default_out: str) -> None:
+        p.add_argument("folder", metavar="FOLDER", help="one sub-folder per class of WAV, "
+                                                        "FLAC or CSV recordings")
+        p.add_argument("-o", "--out", default=default_out,
+                       help=f"output folder for the model(s), report.json and the "
+                            f"confusion-matrix PNG (default: {default_out})")
+        p.add_argument("--rate-hint", type=_positive(float, 999, 384_000), metavar="HZ",
+                       help="sample rate of CSV files that do not state theirs (a header "
+                            "line '# rate=8000' does)")
+        p.add_argument("--max-hz", type=_positive(float, 200), metavar="HZ",
+                       help="top of the frequency bands (default: 0.45 x the lowest rate "
+                            "in FOLDER, at most 7200): lower it to run the model on "
+                            "recordings at lower rates")
+        p.add_argument("--test-fraction", type=_positive(float, 0, 0.9), default=0.25,
+                       metavar="F", help="share of each class's recordings held out for "
+                                         "the test (default 0.25)")
+        p.add_argument("--canonical-rate", type=_positive(int, 999, 192_000), default=16000,
+                       metavar="HZ", help="recordings above this rate are resampled to it "
+                                          "(default 16000: bands up to 7.2 kHz, portable to "
+                                          "any sensor at 16 kHz or more)")
+        p.add_argument("--seed", type=int, default=0, help="seed of the split and the "
+                                                          "training (default 0)")
+        p.add_argument("--json", action="store_true", help="print the report as JSON")
+
+    m = tsub.add_parser("material", help="material classifier (sliding contact)",
+                        description=_cmd_train_material.__doc__)
+    common(m, "material-model")
+    m.add_argument("--window", type=_positive(float, 0.05, 10), default=0.5, metavar="S",
+                   help="window length, seconds (default 0.5)")
+    m.add_argument("--step", type=_positive(float, 0.005, 10), default=0.1, metavar="S",
+                   help="one window every S seconds (default 0.1: 10 Hz)")
+    m.add_argument("--hidden", type=_hidden, default=(32,), metavar="N[,N...]",
+                   help="hidden layer sizes of the MLP (default 32)")
+    m.add_argument("--epochs", type=_positive(int, 0, 100_000), default=300,
+                   help="most training epochs (default 300; early stopping)")
+    m.add_argument("--folds", type=_positive(int, 0, 100), default=1, metavar="K",
+                   help="K-fold cross-validation by recording instead of one split "
+                        "(default 1: one split, --test-fraction held out)")
+    m.set_defaults(func=_cmd_train_material)
+
+    s = tsub.add_parser("shake", help="box-content classifiers (CNN and MLP) from shaking",
+                        description=_cmd_train_shake.__doc__)
+    common(s, "shake-model")
+    s.add_argument("--model", choices=("both", "cnn", "mlp"), default="both",
+                   help="which model(s) to train (default both, compared)")
+    s.add_argument("--step", type=_positive(float, 0.005, 10), default=0.1, metavar="S",
+                   help="prediction step, seconds (default 0.1: 10 Hz)")
+    s.add_argument("--cnn-epochs", type=_positive(int, 0, 10_000), default=40, metavar="N",
+                   help="most CNN epochs (default 40; early stopping on held-out "
+                        "recordings)")
+    s.add_argument("--cnn-max-seconds", type=_positive(float), metavar="S",
+                   help="stop the CNN's training after S seconds")
+    s.set_defaults(func=_cmd_train_shake)
+
+    c = sub.add_parser("classify", help="classify a recording or a live stream with a "
+                                        "trained material or shake model",
+                       description=_cmd_classify.__doc__)
+    csub = c.add_subparsers(dest="classify_command", metavar="KIND", required=True)
+    for kind in ("material", "shake"):
+        p = csub.add_parser(kind, help=f"with a {kind} model",
+                            description=_cmd_classify.__doc__)
+        p.add_argument("model", metavar="MODEL", help="the .onnx file written by "
+                                                      f"`fingertip train {kind}`")
+        p.add_argument("file", metavar="FILE", nargs="?",
+                       help="a WAV, FLAC or CSV recording")
+        p.add_argument("--audio", metavar="DEVICE",
+                       help="live from this sound card (index or part of its name)")
+        p.add_argument("--port", metavar="PORT",
+                       help="live from the USB sound card on the same hub as the "
+                            "fingertip on this serial port")
+        p.add_argument("--simulate", metavar="NAME",
+                       help="live from the virtual fingertip: a material (sliding) or a "
+                            "box content (screws, rubber_bands, empty)")
+        p.add_argument("--duration", type=_positive(float), metavar="S",
+                       help="stop a live stream after S seconds of audio")
+        p.add_argument("--rate", type=_positive(float, 999, 384_000), metavar="HZ",
+                       help="sample rate of a CSV file that does not state its own")
+        p.add_argument("--samplerate", type=_positive(float, 999, 384_000), default=44100,
+                       metavar="HZ", help="rate to open the sound card at (default 44100)")
+        p.add_argument("--channel", type=int, default=0, help="input channel (default 0)")
+        p.add_argument("--fast", action="store_true",
+                       help="--simulate: as fast as possible instead of in real time")
+        p.add_argument("--seed", type=int, default=0, help="--simulate: which realisation")
+        p.add_argument("--json", action="store_true", help="one JSON object per line")
+        p.set_defaults(func=_cmd_classify, kind=kind)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="fingertip-classifiers")
+    add_parsers(p.add_subparsers(dest="command", metavar="COMMAND", required=True))
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    return int(args.func(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
