@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fingertip.events import contact_intervals, vibration_onsets
+from fingertip.events import Event, contact_intervals, heights_at, refine_contacts, vibration_onsets
 from fingertip.sim.physics import CupStackSlide, Press, simulate
 
 
@@ -39,3 +39,25 @@ def test_silence_clipping_and_bad_values():
     with pytest.raises(ValueError, match="NaN"):
         contact_intervals(np.arange(3.0), np.array([[0, 0], [np.inf, 0], [0, 0]]))
     assert contact_intervals(np.arange(2.0), np.zeros((2, 4))) == []
+
+
+def test_rim_heights_from_the_robots_log():
+    scene = CupStackSlide(speed_mm_s=7.0)
+    r = simulate(scene, seed=5)
+    onsets = vibration_onsets(r.audio.samples, r.audio.fs)
+    truth = scene.events()
+    # The robot's log: z falls at the slide speed from z_start after pre_s.
+    t = np.linspace(0, scene.duration_s, 200)
+    z = scene.z_mm(t)
+    got = [h for _, h in heights_at(onsets, t, z)]
+    want = truth["rim_z_mm"][:truth["rims_passed"]]
+    assert np.max(np.abs(np.array(got) - np.array(want))) < 0.3  # mm
+    with pytest.raises(ValueError, match="outside"):
+        heights_at([Event(99.0, "x")], t, z)
+
+
+def test_contacts_take_the_piezo_time():
+    force = [Event(1.010, "contact_make"), Event(2.0, "contact_break")]
+    vib = [Event(0.9995, "vibration_onset"), Event(1.5, "vibration_onset")]
+    out = refine_contacts(force, vib)
+    assert out[0].time == 0.9995 and out[1].time == 2.0

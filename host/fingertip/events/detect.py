@@ -136,3 +136,40 @@ def vibration_onsets(x: np.ndarray, fs: float, *, window_s: float = 0.002,
             continue
         out.append(Event(t0 + s / rate, "vibration_onset", float(env[s:e + 1].max())))
     return out
+
+
+def heights_at(events: list[Event], t: np.ndarray, z: np.ndarray) -> list[tuple[Event, float]]:
+    """Each event with the robot's height at its time, interpolated in the robot's own log
+    of (time, z) on the same clock (e.g. the host clock the bridge maps frames onto)."""
+    t = _check_finite("robot times", t)
+    z = _check_finite("robot heights", z)
+    if t.size < 2 or t.size != z.size:
+        raise ValueError("need at least two (time, z) samples of the robot, as many of each")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError("robot times must increase")
+    out = []
+    for e in events:
+        if not t[0] <= e.time <= t[-1]:
+            raise ValueError(f"event at {e.time:.3f} s lies outside the robot's log "
+                             f"({t[0]:.3f}..{t[-1]:.3f} s)")
+        out.append((e, float(np.interp(e.time, t, z))))
+    return out
+
+
+def refine_contacts(force_events: list[Event], vibration_events: list[Event], *,
+                    before_s: float = 0.05, after_s: float = 0.02) -> list[Event]:
+    """Contact events from force, timed by vibration where the piezo heard them.
+
+    A force frame comes every 12.5 ms at best, the piezo every 23 us: a contact make or break
+    found in the force channels takes the time of a vibration onset from ``before_s`` before
+    it to ``after_s`` after it, when there is one (``detail`` of the kind says which)."""
+    onsets = np.array(sorted(e.time for e in vibration_events))
+    out = []
+    for e in force_events:
+        if onsets.size:
+            i = int(np.searchsorted(onsets, e.time - before_s))
+            if i < onsets.size and onsets[i] <= e.time + after_s:
+                out.append(Event(float(onsets[i]), e.kind, e.value))
+                continue
+        out.append(e)
+    return out
