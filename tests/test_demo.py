@@ -31,6 +31,12 @@ def test_demo_on_the_firmware(tmp_path):
     assert len(makes) == len(breaks) == 4  # a press, two slides, the cup slide
     press = demo_scene().parts[0]
     assert abs(makes[0] - press.pre_s) < 0.1
+    # Calibrated forces in newtons: the press peaks near its 2 N, the slides press ~1 N.
+    import numpy as np
+
+    mag = np.hypot(r.forces[:, 0], r.forces[:, 1])
+    assert 1.6 < mag.max() < 2.6 and np.median(mag[:20]) < 0.15
+    assert [m for _, _, m in r.materials][:1] == ["coarse_fabric"]
     onsets = [e.time for e in r.events if e.kind == "vibration_onset"]
     rims = _truth(demo_scene())["rims"]
     for rim in rims:

@@ -8,6 +8,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from . import __version__
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
@@ -261,6 +263,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
           f"(overruns {st['audio_overflows']})")
     for e in r.events:
         print(f"event        {e.time:7.3f} s  {e.kind}")
+    for t0, t1, name in r.materials:
+        print(f"material     {t0:7.3f} - {t1:6.3f} s  {name}")
+    if len(r.forces):
+        print(f"peak force   {float(np.max(np.hypot(r.forces[:, 0], r.forces[:, 1]))):.2f} N")
     print(f"recording:   {r.recording} ({st['recording_messages']} messages, dropped "
           f"{st['recording_dropped']}); try `fingertip replay {r.recording}`")
     print(f"summary:     {r.png}")

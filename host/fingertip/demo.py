@@ -23,12 +23,15 @@ from .events import Event, contact_intervals, vibration_onsets
 from .plots import session_summary
 from .record import Recorder
 from .sim import VirtualFirmware
-from .sim.physics import CupStackSlide, Press, Script, Slide, VirtualStrainSensor, simulate
+from .sim.physics import (
+    CupStackSlide, Press, Script, Slide, VirtualStrainSensor, calibration_sweep, simulate,
+)
 
 log = logging.getLogger(__name__)
 
 LEAD_S = 0.4        # between arming the scene and its start
 GRID_US = 2_500     # how finely the harness's analog inputs follow the physics
+LOUD_DB = -58.0     # a window this loud is something sliding (the floor with hum: -59 dBFS)
 
 
 def demo_scene() -> Script:
@@ -51,6 +54,8 @@ class DemoResult:
     png: Path
     recording: Path
     device: str
+    forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    materials: list[tuple[float, float, str]] = field(default_factory=list)
     stats: dict = field(default_factory=dict)
 
 
@@ -149,16 +154,24 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     trace = vib.audio.samples.astype(np.float32)
     fs = float(vib.audio.fs)
 
+    force_model = _calibrate(seed, out / "calibration")
+    material = _material_model(seed, out / "material")
+
     make = _firmware_device if use_firmware else _python_device
     ft, arm, stop_device, what = make(sensor, scene, duration)
     print(f"virtual fingertip: {what} on {ft.port}", file=sys.stderr)
     frames: list[Frame] = []
+    forces: list[np.ndarray] = []
     rec = Recorder(out / "demo.mcap", overwrite=True).start()
     try:
         offsets = ft.tare(samples=16)
         print("tared: offsets " + ", ".join(map(str, offsets)), file=sys.stderr)
-        ft.add_callback(frames.append)
-        rec.attach(ft, "index")
+        def on_frame(f: Frame) -> None:
+            frames.append(f)
+            forces.append(force_model.estimate(f.counts))
+
+        ft.add_callback(on_frame)
+        rec.attach(ft, "index", force_model=force_model)
         rec.write_info("index", ft.info)
         ft.start()
         host_start = arm()
@@ -188,17 +201,24 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
         cap = threading.Thread(target=capture, daemon=True)
         cap.start()
         t_end = host_start + duration
+        label, rims, next_check = "-", 0, 0.0
         while time.monotonic() < t_end:
             time.sleep(0.05)
-            if frames:
-                f = frames[-1]
-                rms = float(np.sqrt(np.mean(chunks[-1].samples.astype(np.float32) ** 2))
-                            / 32768) if chunks else 0.0
-                st = ft.stats
-                live_line.show(f"t {time.monotonic() - host_start:5.1f} s  frames "
-                               f"{len(frames):5d}  counts " + " ".join(
-                                   f"{c:8d}" for c in f.counts)
-                               + f"  piezo rms {rms:.4f}  lost {st.frames_lost}")
+            now = time.monotonic()
+            if chunks and now >= next_check:
+                # Every half second: the material of the last 0.6 s, the rims so far.
+                next_check = now + 0.5
+                recent = np.concatenate([c.samples.reshape(-1) for c in chunks[-60:]])
+                label = _live_material(material, recent[-int(0.6 * fs):] / 32768, fs)
+                heard = np.concatenate([c.samples.reshape(-1) for c in chunks]) / 32768
+                rims = sum(1 for e in vibration_onsets(heard, fs, t0=chunks[0].host_time)
+                           if e.time - host_start > 9.0)  # during the cup slide
+            if forces:
+                fx, fy = forces[-1]
+                live_line.show(f"t {now - host_start:5.1f} s  frames {len(frames):5d}  "
+                               f"F = ({fx:+.2f}, {fy:+.2f}) N  |F| {np.hypot(fx, fy):.2f} N"
+                               f"  material {label:<16s}  rims {rims}  "
+                               f"lost {ft.stats.frames_lost}")
         live_line.done()
         ft.stop()
         mic.stop()
@@ -229,11 +249,83 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     stats["recording_messages"] = int(sum(rec_stats.written.values()))
     stats["recording_dropped"] = int(sum(rec_stats.dropped.values()))
     truth = _truth(scene)
+    first = len(frames) - len(scene_frames)
+    f_arr = np.array(forces[first:], dtype=np.float64).reshape(-1, 2)
+    materials = _material_segments(material, audio, fs, audio_t0, events)
     png = session_summary(out / "demo_summary.png", force_t=t_force, counts=counts, audio=audio,
                           fs=fs, audio_t0=audio_t0, events=events, truth=truth,
+                          forces=f_arr, labels=materials,
                           title=f"virtual fingertip demo, {what}: press; slide over coarse "
                                 "fabric, copper tape; slide down a cup stack")
-    return DemoResult(frames, audio, fs, events, png, out / "demo.mcap", what, stats)
+    return DemoResult(frames, audio, fs, events, png, out / "demo.mcap", what, stats=stats,
+                      forces=f_arr, materials=materials)
+
+
+def _live_material(clf, x: np.ndarray, fs: float) -> str:
+    """The material of a short stretch of audio, or "-" when nothing slides."""
+    from .models.features import Recording
+
+    try:
+        preds = clf.classify(Recording(x.astype(np.float64), fs)).predictions
+    except ValueError:
+        return "-"
+    loud = [p for p in preds if p.level_db > LOUD_DB]
+    return loud[-1].label if loud else "-"
+
+
+def _calibrate(seed: int, out: Path):
+    """The paper's calibration sweep on this virtual unit, fitted and exported to ONNX."""
+    from .models.calibrate import fit_calibration, from_arrays
+    from .models.force import ForceModel
+
+    sensor = VirtualStrainSensor(seed, rate_sps=80)
+    # The unit at rest, averaged as `tare` does on the device, then the sweep.
+    tare = sensor.counts_batch(np.zeros((16, 2)), 0.0, np.arange(1, 17) / 80).mean(axis=0)
+    sw = calibration_sweep(sensor, seed=seed, t0_us=1_000_000)
+    data = from_arrays(sw.counts - tare, sw.fx, sw.fy, angle_deg=sw.angle_deg,
+                       height_mm=sw.height_mm, trial=sw.trial)
+    rep = fit_calibration(data, out, models="affine,mlp16x16", epochs=300, plot=False)
+    best = rep.chosen_result
+    print(f"calibrated: {rep.chosen}, held-out RMSE {best.rmse_n:.3f} N", file=sys.stderr)
+    return ForceModel(out / "force.onnx")
+
+
+def _material_model(seed: int, out: Path):
+    """A material classifier trained on simulated slides over the paper's seven materials."""
+    from .models.classify import VibrationClassifier
+    from .models.material import train_material
+    from .sim.dataset import write_vibration
+
+    write_vibration(out / "data", kind="materials", recordings_per_class=6, seconds=1.0,
+                    seed=seed + 100, force=True)
+    train_material(out / "data", out, plot=False, epochs=150)
+    print("material classifier trained on 42 simulated slides", file=sys.stderr)
+    return VibrationClassifier(out / "material.onnx")
+
+
+def _material_segments(clf, audio: np.ndarray, fs: float, t0: float,
+                       events: list[Event]) -> list[tuple[float, float, str]]:
+    """The majority material of each contact that vibrated like a slide (not a press)."""
+    from .models.features import Recording
+
+    try:
+        preds = clf.classify(Recording(audio.astype(np.float64), fs)).predictions
+    except ValueError:
+        return []
+    makes = [e.time for e in events if e.kind == "contact_make"]
+    breaks = [e.time for e in events if e.kind == "contact_break"]
+    onsets = [e.time for e in events if e.kind == "vibration_onset"]
+    out = []
+    for m, b in zip(makes, breaks, strict=False):
+        if sum(1 for o in onsets if m + 0.1 < o < b) >= 2:
+            continue  # rims: a cup stack, not a material
+        inside = [p for p in preds if m + 0.1 <= p.t_start + t0 and p.t_end + t0 <= b - 0.1]
+        loud = [p for p in inside if p.level_db > LOUD_DB]
+        if len(loud) < max(2, len(inside) // 2):
+            continue
+        names = [p.label for p in loud]
+        out.append((m, b, max(set(names), key=names.count)))
+    return out
 
 
 def _truth(scene: Script) -> dict[str, list[float]]:
