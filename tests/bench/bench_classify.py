@@ -262,3 +262,20 @@ DESCRIPTION = {
     "features_ms_per_second_of_audio": ("whole feature path for 1 s of 44.1 kHz audio: "
                                         "resample to 16 kHz, STFT, 32 bands, ms", None),
 }
+
+
+def tables(r: dict[str, float]) -> dict[str, str]:
+    """Shake classifiers: the CNN against the MLP, accuracy and cost side by side."""
+    def g(k: str) -> str:
+        v = r.get(k)
+        return "-" if v is None else (f"{v:,.0f}" if abs(v) >= 100 else f"{v:.4g}")
+
+    rows = ["| | MLP | CNN |", "|---|---|---|"]
+    for label, key in [("accuracy per shake (paper protocol)", "shake_accuracy_{}"),
+                       ("accuracy per shake (harder set)", "shake_hard_accuracy_{}"),
+                       ("parameters", "shake_params_{}"),
+                       ("latency, model alone (ms)", "shake_latency_ms_{}"),
+                       ("latency from 1 s of raw audio (ms)", "shake_latency_audio_ms_{}"),
+                       ("training time (s)", "shake_train_s_{}")]:
+        rows.append(f"| {label} | {g(key.format('mlp'))} | {g(key.format('cnn'))} |")
+    return {"Shake classifiers: is the CNN worth its cost?": "\n".join(rows)}

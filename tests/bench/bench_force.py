@@ -107,3 +107,16 @@ for _n in DEFAULT_MODELS:
         f"{_n}: onnxruntime, one frame per call, p50 (us)", None)
     DESCRIPTION[f"force_latency_us_batch_{_n}"] = (
         f"{_n}: onnxruntime, batch of 1000, per frame, p50 (us)", None)
+
+
+def tables(r: dict[str, float]) -> dict[str, str]:
+    """The speed-against-error table of the force models, from one run's figures."""
+    models = sorted({k[len("force_rmse_"):] for k in r if k.startswith("force_rmse_")
+                     and not k.endswith("_n")}, key=lambda m: r[f"force_rmse_{m}"])
+    rows = ["| model | held-out RMSE (N) | one frame (us, p50) | per frame in a batch of "
+            "1000 (us) |", "|---|---|---|---|"]
+    for m in models:
+        rows.append(f"| {m} | {r[f'force_rmse_{m}']:.3f} | "
+                    f"{r.get(f'force_latency_us_single_{m}', float('nan')):.2f} | "
+                    f"{r.get(f'force_latency_us_batch_{m}', float('nan')):.3f} |")
+    return {"Force models: speed against error": "\n".join(rows)}

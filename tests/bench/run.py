@@ -41,10 +41,13 @@ def main() -> int:
         if MD_OUT.with_suffix(".meta.json").exists() else {}
     machine = describe()
     missed = []
+    tables = meta.pop("_tables", {})
     for name in args.names:
         mod = importlib.import_module(f"tests.bench.bench_{name}")
         print(f"bench {name} ...", flush=True)
         figures = mod.run()
+        if hasattr(mod, "tables"):  # markdown tables made from this run's figures
+            tables.update(mod.tables(figures))
         for key, value in figures.items():
             print(f"  {key} = {value}")
             what, target = mod.DESCRIPTION.get(key, ("", None))
@@ -59,8 +62,8 @@ def main() -> int:
                          "date": machine["date"]}
         results.update(figures)
     JSON_OUT.write_text(json.dumps(dict(sorted(results.items())), indent=1) + "\n")
-    MD_OUT.with_suffix(".meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True)
-                                                + "\n")
+    MD_OUT.with_suffix(".meta.json").write_text(
+        json.dumps({**meta, "_tables": tables}, indent=1, sort_keys=True) + "\n")
     lines = [
         "# Benchmarks",
         "",
@@ -80,6 +83,8 @@ def main() -> int:
         lines.append(f"| `{key}` | {shown} | {m.get('target', '')} | {m.get('status', '')} | "
                      f"{m.get('what', '')} | "
                      f"{m.get('date', '')}, {m.get('machine', '')} |")
+    for title, table in sorted(tables.items()):
+        lines += ["", f"## {title}", "", table.rstrip()]
     MD_OUT.write_text("\n".join(lines) + "\n")
     print(f"wrote {MD_OUT.relative_to(ROOT)} and {JSON_OUT.relative_to(ROOT)}")
     for m in missed:
