@@ -15,6 +15,8 @@ truth is known without simulating anything). It declares the signals it needs in
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -61,7 +63,7 @@ class Forces:
                    np.broadcast_to(np.asarray(z, float), mag.shape).copy())
 
 
-class Scene:
+class Scene(ABC):
     """Base class. Subclasses are frozen dataclasses with ``signals`` and ``seed`` fields."""
 
     default_signals: ClassVar[tuple[str, ...]] = (FORCE,)
@@ -81,8 +83,9 @@ class Scene:
         return s
 
     @property
+    @abstractmethod
     def duration_s(self) -> float:
-        raise NotImplementedError
+        """How long the scene lasts, in seconds."""
 
     def forces(self, t: np.ndarray) -> Forces:
         return Forces.zeros(len(np.atleast_1d(t)))
