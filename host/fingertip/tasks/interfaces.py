@@ -1,0 +1,93 @@
+"""What a recipe needs from a robot: implement :class:`RobotHand` and :class:`RobotArm`.
+
+Both are small on purpose. Positions are in millimetres, speeds in mm/s, times in seconds.
+Forces are never computed by the robot: each finger hands over its fingertip's raw
+:class:`~fingertip.device.Frame` and the force model of that fingertip, and the recipe does
+the rest (filtering, thresholds, aborts). See ``docs/tasks.md`` for a skeleton.
+"""
+from __future__ import annotations
+
+import abc
+from collections.abc import Mapping
+from typing import Protocol
+
+from ..device import Frame
+
+FrameSet = Mapping[str, Frame]
+"""One frame per finger, read together (finger name -> frame)."""
+
+
+class ForceEstimator(Protocol):
+    """What a finger's force model must offer (a :class:`~fingertip.models.ForceModel` does)."""
+
+    def estimate_frame(self, frame: Frame, channels: tuple[int, ...] | None = None, *,
+                       strict: bool = False): ...
+
+
+class RobotHand(abc.ABC):
+    """A hand whose fingers close and open along one axis each, with a fingertip on each.
+
+    ``step`` must return quickly (it queues or starts a motion; it does not wait for it to
+    finish): recipes call it once per sensor frame.
+    """
+
+    @property
+    @abc.abstractmethod
+    def fingers(self) -> list[str]:
+        """The finger names, in a fixed order."""
+
+    @abc.abstractmethod
+    def step(self, increments_mm: Mapping[str, float]) -> None:
+        """Move each named finger by its increment: > 0 closes, < 0 opens. Fingers not named
+        do not move. Implementations clamp at their travel limits."""
+
+    @abc.abstractmethod
+    def positions(self) -> dict[str, float]:
+        """Each finger's closing travel in mm (0: fully open)."""
+
+    @abc.abstractmethod
+    def read(self, timeout: float = 0.5) -> FrameSet | None:
+        """The next frame of every finger's fingertip (one set per sensor period), or None
+        when no complete set arrived within ``timeout`` seconds."""
+
+    @abc.abstractmethod
+    def force_model(self, finger: str) -> ForceEstimator:
+        """The calibrated force model of this finger's fingertip."""
+
+    def open_fully(self) -> None:
+        """Open every finger to its start (the safe state after an abort)."""
+        pos = self.positions()
+        self.step({f: -p for f, p in pos.items() if p > 0})
+
+
+class RobotArm(abc.ABC):
+    """An arm carrying the hand: Cartesian moves, a vertical slide, a horizontal shake.
+
+    ``slide_z`` and ``shake`` start a motion and return; :meth:`moving` says when it is over,
+    so a recipe can keep reading fingertip frames during the motion.
+    """
+
+    @abc.abstractmethod
+    def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
+        """Move the hand (tool point) to a Cartesian position; blocks until there."""
+
+    @abc.abstractmethod
+    def position(self) -> tuple[float, float, float]:
+        """The tool point now (x, y, z) in mm."""
+
+    @abc.abstractmethod
+    def slide_z(self, dz_mm: float, speed_mm_s: float) -> None:
+        """Start a vertical move by ``dz_mm`` (> 0 up) at a constant speed; returns at once."""
+
+    @abc.abstractmethod
+    def shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
+        """Start a horizontal sinusoidal shake (peak-to-peak ``amplitude_mm``); returns at
+        once."""
+
+    @abc.abstractmethod
+    def moving(self) -> bool:
+        """True while a slide or shake started here is still running."""
+
+    @abc.abstractmethod
+    def stop(self) -> None:
+        """Stop any motion now (the safe state after an abort)."""
