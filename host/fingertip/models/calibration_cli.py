@@ -15,27 +15,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from ..argtypes import number
 log = logging.getLogger("fingertip")
-
-
-def _pct(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
-    if not 0 <= v <= 1000:  # also refuses nan
-        raise argparse.ArgumentTypeError(f"must be between 0 and 1000 (percent), not {text}")
-    return v
-
-
-def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {v}")
-    return v
 
 
 def _models(text: str) -> list[str]:
@@ -146,7 +127,7 @@ def add_parsers(sub) -> None:
                        help="a calibration CSV, or a folder of them (one session each)")
         p.add_argument("--unit", help="use the rows of this unit only (unit_seed column), "
                                       "when the dataset holds several fingertips")
-        p.add_argument("--max-saturated", type=_pct, metavar="PCT",
+        p.add_argument("--max-saturated", type=number(float, 0, 1000), metavar="PCT",
                        default=100 * MAX_SATURATED_FRACTION,
                        help="refuse the data when more rows than this are saturated "
                             f"(default {100 * MAX_SATURATED_FRACTION:g}); fewer are dropped")
@@ -160,14 +141,14 @@ def add_parsers(sub) -> None:
     f.add_argument("--models", type=_models, default=list(DEFAULT_MODELS),
                    help="comma-separated: affine, poly (= poly2,poly3), mlp (= mlp8,mlp16x16,"
                         "mlp32x32), or single names such as poly4, mlp64x64 (default: all)")
-    f.add_argument("--bound", type=_pct, default=10.0, metavar="PCT",
+    f.add_argument("--bound", type=number(float, 0, 1000), default=10.0, metavar="PCT",
                    help="choose the fastest model whose held-out RMSE is within PCT percent "
                         "of the best (default 10)")
     f.add_argument("--split", choices=("auto", "grid", "trial", "blocks"), default="auto",
                    help="what is held out for testing: whole (angle, height) cells (grid), "
                         "whole trials, or blocks of consecutive readings; auto: the first "
                         "the columns allow")
-    f.add_argument("--epochs", type=_positive, default=1500,
+    f.add_argument("--epochs", type=number(int, 1), default=1500,
                    help="MLP training epochs, at most (default 1500; early stopping)")
     f.add_argument("--seed", type=int, default=0, help="MLP initialisation seed (default 0)")
     f.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

@@ -15,20 +15,8 @@ import math
 import sys
 from collections.abc import Sequence
 
+from ..argtypes import number
 log = logging.getLogger("fingertip")
-
-
-def _positive(kind: type = float, lo: float = 0.0, hi: float = math.inf):
-    def parse(text: str):
-        try:
-            v = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
-        if not lo < v <= hi:  # also refuses nan
-            raise argparse.ArgumentTypeError(f"must be above {lo:g}" + (
-                f" and at most {hi:g}" if hi < math.inf else "") + f", not {text}")
-        return v
-    return parse
 
 
 def _hidden(text: str) -> tuple[int, ...]:
@@ -255,17 +243,18 @@ def add_parsers(sub) -> None:
         p.add_argument("-o", "--out", default=default_out,
                        help=f"output folder for the model(s), report.json and the "
                             f"confusion-matrix PNG (default: {default_out})")
-        p.add_argument("--rate-hint", type=_positive(float, 999, 384_000), metavar="HZ",
+        p.add_argument("--rate-hint", type=number(float, 999, 384_000, lo_open=True), metavar="HZ",
                        help="sample rate of CSV files that do not state theirs (a header "
                             "line '# rate=8000' does)")
-        p.add_argument("--max-hz", type=_positive(float, 200), metavar="HZ",
+        p.add_argument("--max-hz", type=number(float, 200, lo_open=True), metavar="HZ",
                        help="top of the frequency bands (default: 0.45 x the lowest rate "
                             "in FOLDER, at most 7200): lower it to run the model on "
                             "recordings at lower rates")
-        p.add_argument("--test-fraction", type=_positive(float, 0, 0.9), default=0.25,
+        p.add_argument("--test-fraction", type=number(float, 0, 0.9, lo_open=True), default=0.25,
                        metavar="F", help="share of each class's recordings held out for "
                                          "the test (default 0.25)")
-        p.add_argument("--canonical-rate", type=_positive(int, 999, 192_000), default=16000,
+        p.add_argument("--canonical-rate", type=number(int, 999, 192_000, lo_open=True),
+                       default=16000,
                        metavar="HZ", help="recordings above this rate are resampled to it "
                                           "(default 16000: bands up to 7.2 kHz, portable to "
                                           "any sensor at 16 kHz or more)")
@@ -276,15 +265,15 @@ def add_parsers(sub) -> None:
     m = tsub.add_parser("material", help="material classifier (sliding contact)",
                         description=_cmd_train_material.__doc__)
     common(m, "material-model")
-    m.add_argument("--window", type=_positive(float, 0.05, 10), default=0.5, metavar="S",
+    m.add_argument("--window", type=number(float, 0.05, 10, lo_open=True), default=0.5, metavar="S",
                    help="window length, seconds (default 0.5)")
-    m.add_argument("--step", type=_positive(float, 0.005, 10), default=0.1, metavar="S",
+    m.add_argument("--step", type=number(float, 0.005, 10, lo_open=True), default=0.1, metavar="S",
                    help="one window every S seconds (default 0.1: 10 Hz)")
     m.add_argument("--hidden", type=_hidden, default=(32,), metavar="N[,N...]",
                    help="hidden layer sizes of the MLP (default 32)")
-    m.add_argument("--epochs", type=_positive(int, 0, 100_000), default=300,
+    m.add_argument("--epochs", type=number(int, 0, 100_000, lo_open=True), default=300,
                    help="most training epochs (default 300; early stopping)")
-    m.add_argument("--folds", type=_positive(int, 0, 100), default=1, metavar="K",
+    m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",
                    help="K-fold cross-validation by recording instead of one split "
                         "(default 1: one split, --test-fraction held out)")
     m.set_defaults(func=_cmd_train_material)
@@ -294,12 +283,13 @@ def add_parsers(sub) -> None:
     common(s, "shake-model")
     s.add_argument("--model", choices=("both", "cnn", "mlp"), default="both",
                    help="which model(s) to train (default both, compared)")
-    s.add_argument("--step", type=_positive(float, 0.005, 10), default=0.1, metavar="S",
+    s.add_argument("--step", type=number(float, 0.005, 10, lo_open=True), default=0.1, metavar="S",
                    help="prediction step, seconds (default 0.1: 10 Hz)")
-    s.add_argument("--cnn-epochs", type=_positive(int, 0, 10_000), default=40, metavar="N",
+    s.add_argument("--cnn-epochs", type=number(int, 0, 10_000, lo_open=True), default=40,
+                   metavar="N",
                    help="most CNN epochs (default 40; early stopping on held-out "
                         "recordings)")
-    s.add_argument("--cnn-max-seconds", type=_positive(float), metavar="S",
+    s.add_argument("--cnn-max-seconds", type=number(float, 0, lo_open=True), metavar="S",
                    help="stop the CNN's training after S seconds")
     s.set_defaults(func=_cmd_train_shake)
 
@@ -322,11 +312,12 @@ def add_parsers(sub) -> None:
         p.add_argument("--simulate", metavar="NAME",
                        help="live from the virtual fingertip: a material (sliding) or a "
                             "box content (screws, rubber_bands, empty)")
-        p.add_argument("--duration", type=_positive(float), metavar="S",
+        p.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",
                        help="stop a live stream after S seconds of audio")
-        p.add_argument("--rate", type=_positive(float, 999, 384_000), metavar="HZ",
+        p.add_argument("--rate", type=number(float, 999, 384_000, lo_open=True), metavar="HZ",
                        help="sample rate of a CSV file that does not state its own")
-        p.add_argument("--samplerate", type=_positive(float, 999, 384_000), default=44100,
+        p.add_argument("--samplerate", type=number(float, 999, 384_000, lo_open=True),
+                       default=44100,
                        metavar="HZ", help="rate to open the sound card at (default 44100)")
         p.add_argument("--channel", type=int, default=0, help="input channel (default 0)")
         p.add_argument("--fast", action="store_true",

@@ -18,27 +18,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..argtypes import number
 log = logging.getLogger("fingertip")
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
-    if not v > 0 or v != v or v == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, not {text}")
-    return v
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {v}")
-    return v
 
 
 def load_force_model(spec: str):
@@ -290,30 +271,31 @@ def add_parsers(sub) -> None:
     g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
     r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
                    help="the recording to write")
-    r.add_argument("--duration", type=_positive_float, metavar="S",
+    r.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",
                    help="stop after S seconds (default: at Ctrl-C)")
     a = r.add_mutually_exclusive_group()
     a.add_argument("--audio", metavar="DEVICE",
                    help="also record this sound card (index or part of its name)")
     a.add_argument("--audio-file", metavar="WAV",
                    help="also record this WAV/FLAC file as the microphone, in real time")
-    r.add_argument("--audio-rate", type=_positive_float, default=44100.0,
+    r.add_argument("--audio-rate", type=number(float, 0, lo_open=True), default=44100.0,
                    help="sample rate for --audio (default 44100)")
-    r.add_argument("--audio-channels", type=_positive_int, default=1,
+    r.add_argument("--audio-channels", type=number(int, 1), default=1,
                    help="channels for --audio (default 1)")
     r.add_argument("--audio-dtype", choices=("int16", "int32", "float32"), default="int16",
                    help="sample format for --audio (int32 for 24-bit cards; default int16)")
     r.add_argument("--name", default="fingertip",
                    help="the fingertip's name in topic names /fingertip/NAME/... "
                         "(default: fingertip)")
-    r.add_argument("--tare", type=_positive_int, metavar="N", help="tare with N samples first")
+    r.add_argument("--tare", type=number(int, 1), metavar="N", help="tare with N samples first")
     r.add_argument("--force-model", metavar="MODULE:FUNCTION",
                    help="a Python callable counts -> (fx, fy[, fz]) in newtons; its forces "
                         "are recorded as geometry_msgs/WrenchStamped")
-    r.add_argument("--flush-interval", type=_positive_float, default=0.5, metavar="S",
+    r.add_argument("--flush-interval", type=number(float, 0, lo_open=True), default=0.5,
+                   metavar="S",
                    help="write the chunk in progress every S seconds (default 0.5): at most "
                         "this much is lost if the recorder is killed")
-    r.add_argument("--flush-kb", type=_positive_int, default=1024, metavar="KB",
+    r.add_argument("--flush-kb", type=number(int, 1), default=1024, metavar="KB",
                    help="... or when it reaches KB kilobytes (default 1024)")
     r.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd",
                    help="chunk compression (default zstd)")
@@ -326,7 +308,7 @@ def add_parsers(sub) -> None:
                        description=_cmd_replay.__doc__)
     p.add_argument("file", metavar="FILE.mcap", help="a recording")
     s = p.add_mutually_exclusive_group()
-    s.add_argument("--speed", type=_positive_float, default=1.0, metavar="X",
+    s.add_argument("--speed", type=number(float, 0, lo_open=True), default=1.0, metavar="X",
                    help="playback speed (default 1.0 = real time)")
     s.add_argument("--as-fast-as-possible", action="store_true",
                    help="no pacing: as fast as the frames are printed")

@@ -12,32 +12,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from ..argtypes import number
 log = logging.getLogger("fingertip")
-
-
-def _int_in(lo: int, hi: int | None = None):
-    def parse(text: str) -> int:
-        try:
-            v = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"invalid integer: {text!r}") from None
-        if v < lo or (hi is not None and v > hi):
-            span = f"between {lo} and {hi}" if hi is not None else f"at least {lo}"
-            raise argparse.ArgumentTypeError(f"must be {span}, not {v}")
-        return v
-    return parse
-
-
-def _float_in(lo: float, hi: float):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
-        if not lo <= v <= hi:  # also refuses nan
-            raise argparse.ArgumentTypeError(f"must be between {lo:g} and {hi:g}, not {text}")
-        return v
-    return parse
 
 
 def _report(res, what: str) -> None:
@@ -102,7 +78,7 @@ def add_parsers(sub) -> None:
 
     def common(p: argparse.ArgumentParser) -> None:
         p.add_argument("out", metavar="OUT", help="output folder (created; must be empty)")
-        p.add_argument("--seed", type=_int_in(0, 2 ** 31 - 1), default=0,
+        p.add_argument("--seed", type=number(int, 0, 2 ** 31 - 1), default=0,
                        help="seed of the whole dataset (default 0): same seed, same files")
         p.add_argument("--params", metavar="FILE.toml",
                        help="another parameter file (default: the shipped fingertip.toml)")
@@ -114,19 +90,19 @@ def add_parsers(sub) -> None:
     c = dsub.add_parser("calibration", help="the paper's calibration sweep, one CSV per unit",
                         description=_cmd_calibration.__doc__)
     common(c)
-    c.add_argument("--units", type=_int_in(1, 10_000), default=1,
+    c.add_argument("--units", type=number(int, 1, 10_000), default=1,
                    help="virtual fingertips, seeds SEED..SEED+N-1 (default 1)")
-    c.add_argument("--sweeps", type=_int_in(1, 100), default=1,
+    c.add_argument("--sweeps", type=number(int, 1, 100), default=1,
                    help="sweeps per unit, one after the other (default 1; 2 gives a "
                         "held-out sweep)")
     c.add_argument("--rate-sps", type=int, choices=(10, 80), default=80,
                    help="HX711 rate, sets the noise (default 80)")
-    c.add_argument("--samples-per-step", type=_int_in(1, 64), default=1,
+    c.add_argument("--samples-per-step", type=number(int, 1, 64), default=1,
                    help="readings logged at the end of each 8 s pause (default 1)")
-    c.add_argument("--tare", type=_int_in(0, 256), default=16, metavar="N",
+    c.add_argument("--tare", type=number(int, 0, 256), default=16, metavar="N",
                    help="tare with N readings at zero load first, as `fingertip tare` does "
                         "(default 16; 0 logs raw counts with their offsets)")
-    c.add_argument("--max-force", type=_float_in(0.1, 50.0), default=5.0, metavar="N",
+    c.add_argument("--max-force", type=number(float, 0.1, 50.0), default=5.0, metavar="N",
                    help="force at full travel, newtons (default 5, the paper's range)")
     c.set_defaults(func=_cmd_calibration)
 
@@ -135,13 +111,13 @@ def add_parsers(sub) -> None:
     common(v)
     v.add_argument("--kind", choices=KINDS, default="materials",
                    help="materials (default), shake or cups")
-    v.add_argument("--recordings-per-class", type=_int_in(1, 100_000), metavar="N",
+    v.add_argument("--recordings-per-class", type=number(int, 1, 100_000), metavar="N",
                    help="default: " + ", ".join(f"{k} {n}" for k, n in
                                                 DEFAULT_RECORDINGS.items()))
-    v.add_argument("--seconds", type=_float_in(0.05, 600.0), metavar="S",
+    v.add_argument("--seconds", type=number(float, 0.05, 600.0), metavar="S",
                    help="length of each recording (default: materials the paper's 16 mm "
                         "slide at the drawn speed, 0.4-1.6 s; shake 5.6 s; not for cups)")
-    v.add_argument("--rate", type=_int_in(MIN_RATE_HZ, MAX_RATE_HZ), default=44100,
+    v.add_argument("--rate", type=number(int, MIN_RATE_HZ, MAX_RATE_HZ), default=44100,
                    metavar="HZ", help="sample rate of the files (default 44100, the "
                                       "simulation's; others are resampled from it)")
     v.add_argument("--format", choices=FORMATS, default="wav",

@@ -1,0 +1,35 @@
+"""Argument types for the command line: numbers with a range, one message style everywhere.
+
+No imports from the rest of the package, so every layer's CLI module can use it.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+
+def number(kind: type = float, lo: float | None = None, hi: float | None = None, *,
+           lo_open: bool = False) -> Callable[[str], float]:
+    """An argparse ``type`` that parses ``kind`` (int or float) and checks ``lo`` <= v <= ``hi``
+    (``lo`` < v with ``lo_open``). NaN and infinities are always refused."""
+    what = "integer" if kind is int else "number"
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid {what}: {text!r}") from None
+        too_low = lo is not None and (v <= lo if lo_open else v < lo)
+        too_high = hi is not None and v > hi
+        if not math.isfinite(v) or too_low or too_high:
+            parts = []
+            if lo is not None:
+                parts.append(f"{'above' if lo_open else 'at least'} {lo:g}")
+            if hi is not None:
+                parts.append(f"at most {hi:g}")
+            span = " and ".join(parts) or "finite"
+            raise argparse.ArgumentTypeError(f"must be {span}, not {text}")
+        return v
+
+    return parse
