@@ -1,12 +1,13 @@
-"""Argument types for the command line: numbers with a range, one message style everywhere.
+"""Command-line plumbing shared by every CLI module: ranged numbers, and running a parser.
 
 No imports from the rest of the package, so every layer's CLI module can use it.
 """
 from __future__ import annotations
 
 import argparse
+import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 
 def number(kind: type = float, lo: float | None = None, hi: float | None = None, *,
@@ -33,3 +34,15 @@ def number(kind: type = float, lo: float | None = None, hi: float | None = None,
         return v
 
     return parse
+
+
+def dispatch(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
+    """Parse, set up logging from ``-v``, and run the chosen sub-command's ``func``
+    (help and exit status 2 when none was chosen)."""
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING - 10 * min(getattr(args, "verbose", 0), 2),
+                        format="%(levelname)s %(name)s: %(message)s")
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    return int(args.func(args))

@@ -18,7 +18,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..argtypes import number
+from ..argtypes import dispatch, number
 log = logging.getLogger("fingertip")
 
 
@@ -331,13 +331,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                                      description="Record, replay and export fingertip data.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     add_parsers(parser.add_subparsers(dest="command", metavar="COMMAND"))
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
-                        format="%(levelname)s %(name)s: %(message)s")
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
-    return int(args.func(args))
+    return dispatch(parser, argv)
 
 
 if __name__ == "__main__":
