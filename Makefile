@@ -29,7 +29,7 @@ APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $
 
 PYTEST_ARGS ?=
 
-.PHONY: help setup system-packages venv test test-native test-python lint firmware sim demo \
+.PHONY: help setup system-packages venv venv-fab test test-native test-python lint firmware sim demo \
         bench vectors clean distclean
 
 help:
@@ -57,6 +57,19 @@ $(STAMPS)/venv: pyproject.toml requirements/dev.txt | system-packages
 	$(VPY) -m pip install -q --disable-pip-version-check -c requirements/dev.txt \
 	    --no-build-isolation -e ".[dev]"
 	@touch $@
+
+# The CAD and PCB extras (CadQuery pulls in VTK, about 1.8 GB): only for `make cad`, `make pcb`
+# and the tests, so that `make demo` stays small.
+venv-fab: $(STAMPS)/venv-fab
+
+$(STAMPS)/venv-fab: $(STAMPS)/venv
+	$(VPY) -m pip install -q --disable-pip-version-check -c requirements/dev.txt \
+	    --no-build-isolation -e ".[dev,cad,pcb]"
+	@touch $@
+
+# Boards (pcb/) and parametric CAD (mechanical/): their targets live beside them.
+-include pcb/pcb.mk
+-include mechanical/cad.mk
 
 # --- build and test -------------------------------------------------------------------------
 
@@ -89,7 +102,7 @@ lint: venv
 	$(VENV)/bin/ruff check host tests
 
 # pytest exits 5 when it collected nothing: that must fail, never pass as "green".
-test-python: venv
+test-python: venv venv-fab
 	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
 	exit $$rc

@@ -8,6 +8,7 @@ code cannot drift apart silently.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from importlib import resources
@@ -211,11 +212,44 @@ class Mains:
     amplitude_uv_rms: tuple[float, ...]
 
 
+@dataclass(frozen=True)
+class Mount:
+    """The base's footprint and what the fingertip PCB and the finger link meet there."""
+
+    base_side_mm: float
+    base_corner_radius_mm: float
+    mount_hole_radius_mm: float
+    mount_hole_angles_deg: tuple[float, ...]
+    mount_clearance_diameter_mm: float
+    mount_pilot_diameter_mm: float
+    pcb_thickness_mm: float
+    pocket_depth_mm: float
+    wire_hole_x_mm: tuple[float, ...]
+    wire_hole_y_mm: tuple[float, ...]
+    wire_hole_diameter_mm: float
+    ffc_pins: int
+    ffc_pitch_mm: float
+
+    @property
+    def base_inradius_mm(self) -> float:
+        """Distance from the prism axis to each flat edge of the triangle."""
+        return self.base_side_mm / (2 * math.sqrt(3))
+
+    def mount_holes_xy_mm(self) -> list[tuple[float, float]]:
+        """Centres of the M2 mounting holes."""
+        r = self.mount_hole_radius_mm
+        return [(r * math.cos(math.radians(a)), r * math.sin(math.radians(a)))
+                for a in self.mount_hole_angles_deg]
+
+    def wire_holes_xy_mm(self) -> list[tuple[float, float]]:
+        return list(zip(self.wire_hole_x_mm, self.wire_hole_y_mm, strict=True))
+
+
 _SECTIONS: dict[str, type] = {
     "geometry": Geometry, "materials": Materials, "base": Base, "gauge": Gauge,
     "bridge": Bridge, "hx711": HX711, "variation": Variation, "hysteresis": Hysteresis,
     "creep": Creep, "thermal": Thermal, "piezo": Piezo, "preamp": Preamp,
-    "soundcard": SoundCard, "cap_modes": CapModes, "mains": Mains,
+    "soundcard": SoundCard, "cap_modes": CapModes, "mains": Mains, "mount": Mount,
 }
 
 
@@ -236,6 +270,7 @@ class FingertipParams:
     soundcard: SoundCard
     cap_modes: CapModes
     mains: Mains
+    mount: Mount
 
     # --- derived mechanics (SI) -----------------------------------------------------------
 
@@ -318,6 +353,8 @@ def _check(p: FingertipParams, where: str) -> None:
         problems.append("cap_modes lists differ in length")
     if len(p.mains.harmonics) != len(p.mains.amplitude_uv_rms):
         problems.append("mains harmonics and amplitudes differ in length")
+    if len(p.mount.wire_hole_x_mm) != len(p.mount.wire_hole_y_mm):
+        problems.append("mount wire_hole_x_mm and wire_hole_y_mm differ in length")
     if p.bridge.configuration != "quarter":
         problems.append("only the quarter bridge is modelled")
     if problems:
