@@ -8,7 +8,7 @@ Ground truth:
 - Audio: a simulated sound card whose frame ``k`` was digitised at ``a0 + k / (fs (1 + e))``
   (``e``: its crystal error, ``a0``: the injected offset); it delivers blocks as a real card
   does, after a fixed latency plus scheduling jitter, to the same estimator the live capture
-  uses (fingertip.audio.clock.FrameClock with its reported latency taken out).
+  uses (fingertip.clockfit.FrameClock with its reported latency taken out).
 
 The error is how far apart the two maps put one physical instant, and how far each is from
 the truth.
@@ -20,7 +20,7 @@ import threading
 import time
 from dataclasses import dataclass
 
-from fingertip.audio.clock import FrameClock
+from fingertip.clockfit import FrameClock
 from fingertip.sim.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 FS = 44_100

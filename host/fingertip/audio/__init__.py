@@ -15,7 +15,7 @@ This layer imports nothing above ``fingertip.protocol``. See docs/audio.md.
 """
 from .blocks import BlockSource
 from .chunk import AudioStats, Chunk
-from .clock import FrameClock
+from ..clockfit import FrameClock
 from .devices import (
     InputDevice, alsa_card_of, find_alsa_card, find_input_device, import_sounddevice,
     list_input_devices, refresh_devices, supported_rates, usb_hub_of, usb_path_of_alsa_card,

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from .chunk import AudioStats, Chunk
-from .clock import FrameClock
+from ..clockfit import FrameClock
 from .devices import InputDevice, find_input_device, import_sounddevice, supported_rates
 from .source import AudioBackendError, AudioSettingsError, RingSource
 

@@ -1,4 +1,9 @@
-"""Timestamps for audio frames from frame counts: a lower-envelope fit, like device/timesync.
+"""Map a free-running counter's clock to the host clock: a lower-envelope fit. Pure.
+
+Two clocks in this project run on their own crystals and only tell us, on arrival, that an
+event "had happened by now": the sound card's ADC (frame counts) and the fingertip's
+microcontroller (device microseconds). Both go through :class:`FrameClock`; the audio
+sources (fingertip.audio) and the device clock map (fingertip.device.timesync) sit above it.
 
 A sound card's ADC runs on its own crystal, up to a few hundred ppm off the host clock, so
 frame ``k`` was digitised at ``t(k) = t0 + k / rate`` with ``rate`` near, not at, the nominal
@@ -9,8 +14,8 @@ arrival) points over a sliding window: the earliest arrival of each short bin; t
 the slope of their lower convex hull where it passes the middle of the window, the line
 touches the hull. Bursty callbacks (PulseAudio) and a backlog delivered late after a stall
 then do not bias the times; only the minimum delay stays in them, a constant for the whole
-stream. (device/timesync.py does the same for the microcontroller's clock, with a
-least-squares slope; the layer rule keeps the two apart.)
+stream. A device's frames are the same case: each arrives its transport delay after its
+device time (index = microseconds, ``nominal_rate=1e6``).
 
 The same class maps any clock to the host clock, e.g. PortAudio's stream clock (in seconds,
 ``nominal_rate=1``) to ``time.monotonic()``. It is pure: the caller supplies both clocks.
@@ -69,6 +74,11 @@ class FrameClock:
     def skew(self) -> float:
         """Host seconds per nominal second minus one (+100e-6: the card runs 100 ppm slow)."""
         return self._skew
+
+    @property
+    def reference(self) -> tuple[float, float]:
+        """The fit's reference point: (index / nominal_rate, host time - that) there."""
+        return self._ref_x, self._ref_lag
 
     @property
     def rate(self) -> float:
