@@ -111,6 +111,7 @@ test-python: venv venv-fab
 demo: setup
 	$(MAKE) --no-print-directory firmware sim
 	$(VPY) -m fingertip.cli demo --out demo-output
+	$(VPY) -m fingertip.cli experiment pinch --trials 3 --seed 0
 
 bench: setup
 	$(VPY) tests/bench/run.py

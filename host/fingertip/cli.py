@@ -16,6 +16,7 @@ from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
 from .models import calibration_cli, classifier_cli
 from .record import cli as record_cli
+from .tasks import cli as tasks_cli
 from .protocol import (
     PROTOCOL_MAJOR,
     PROTOCOL_MINOR,
@@ -369,6 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     record_cli.add_parsers(sub)
     calibration_cli.add_parsers(sub)
     classifier_cli.add_parsers(sub)
+    tasks_cli.add_parsers(sub)
     return p
 
 

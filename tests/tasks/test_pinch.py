@@ -12,12 +12,6 @@ TRIALS = 25
 CASES = {"tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}
 
 
-@pytest.fixture(autouse=True)
-def _cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("FINGERTIP_TASKS_CACHE",
-                       str(tmp_path_factory.getbasetemp() / "tasks-models"))
-
-
 @pytest.mark.parametrize("name", list(CASES))
 def test_pinch_trials_succeed_without_breaking(name):
     spec, f_th, step = CASES[name]

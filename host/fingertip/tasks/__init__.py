@@ -1,10 +1,14 @@
 """Manipulation recipes built on the fingertip layers (device, models, events).
 
 Recipes talk to the robot only through :class:`RobotHand` and :class:`RobotArm`
-(:mod:`.interfaces`); :mod:`.sim_world` implements both in a simulated world.
+(:mod:`.interfaces`) and the sensor streams; :mod:`.sim_world` implements both in a simulated
+world (:mod:`.sim_cups`, :mod:`.sim_boxes`), and :mod:`.experiment` runs the paper's
+protocols on it. The cup and shake recipes (:mod:`.cups`, :mod:`.shake_pick`) are imported
+from their modules (they pull in the events and classifier code).
 """
-from .interfaces import FrameSet, RobotArm, RobotHand
+from .grip import Grip
+from .interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from .pinch import PinchConfig, PinchOutcome, PinchResult, demonstrate_threshold, pinch
 
-__all__ = ["FrameSet", "PinchConfig", "PinchOutcome", "PinchResult", "RobotArm", "RobotHand",
-           "demonstrate_threshold", "pinch"]
+__all__ = ["AudioBlock", "FrameSet", "Grip", "PinchConfig", "PinchOutcome", "PinchResult",
+           "RobotArm", "RobotHand", "demonstrate_threshold", "pinch"]

@@ -9,12 +9,37 @@ from __future__ import annotations
 
 import abc
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Protocol
+
+import numpy as np
 
 from ..device import Frame
 
 FrameSet = Mapping[str, Frame]
 """One frame per finger, read together (finger name -> frame)."""
+
+
+@dataclass
+class AudioBlock:
+    """Contact-microphone samples of one fingertip, with their times.
+
+    ``t0`` is the time of ``samples[0]`` on the clock of the frames' ``host_time`` and of
+    :meth:`RobotArm.z_history`, so that vibration onsets can be matched with the arm's height.
+    """
+
+    samples: np.ndarray
+    """float32, 1.0 = the sound card's full scale."""
+    fs: float
+    t0: float
+
+    @property
+    def t_end(self) -> float:
+        """The time just after the last sample (where the next block starts)."""
+        return self.t0 + len(self.samples) / self.fs
+
+    def times(self) -> np.ndarray:
+        return self.t0 + np.arange(len(self.samples)) / self.fs
 
 
 class ForceEstimator(Protocol):
@@ -54,6 +79,17 @@ class RobotHand(abc.ABC):
     def force_model(self, finger: str) -> ForceEstimator:
         """The calibrated force model of this finger's fingertip."""
 
+    def read_audio(self, finger: str) -> AudioBlock:
+        """The piezo samples of ``finger``'s fingertip captured since the previous call (the
+        first call starts the capture and may return an empty block). Needed by the cup and
+        shake recipes, not by the pinch."""
+        raise NotImplementedError(f"{type(self).__name__} has no audio capture")
+
+    def step_z(self, increments_mm: Mapping[str, float]) -> None:
+        """Move each named fingertip vertically (along the hand's axis, > 0 up) relative to
+        the others; returns at once. Needed only to separate stacked cups."""
+        raise NotImplementedError(f"{type(self).__name__} cannot move fingers vertically")
+
     def open_fully(self) -> None:
         """Open every finger to its start (the safe state after an abort)."""
         pos = self.positions()
@@ -81,8 +117,8 @@ class RobotArm(abc.ABC):
 
     @abc.abstractmethod
     def shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
-        """Start a horizontal sinusoidal shake (peak-to-peak ``amplitude_mm``); returns at
-        once."""
+        """Start a horizontal sinusoidal shake x(t) = ``amplitude_mm`` sin(2 pi f t) about
+        the current position (the paper's 5 cm at 0.67 Hz for 5.6 s); returns at once."""
 
     @abc.abstractmethod
     def moving(self) -> bool:
@@ -91,3 +127,9 @@ class RobotArm(abc.ABC):
     @abc.abstractmethod
     def stop(self) -> None:
         """Stop any motion now (the safe state after an abort)."""
+
+    def z_history(self, since: float) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's logged heights from time ``since`` on: (times, z in mm), times
+        increasing, on the clock of the frames and the audio (the paper synchronises the
+        rims' vibration onsets with the robot's Z). Needed by the cup recipe."""
+        raise NotImplementedError(f"{type(self).__name__} keeps no z(t) log")

@@ -8,7 +8,10 @@ noise, hysteresis and creep) and comes out as HX711 counts in a :class:`Frame`, 
 real fingertip would stream them; each unit has a force model fitted on its own simulated
 calibration sweep (cached on disk, about 0.7 s per unit the first time).
 
-Time is simulated: one :meth:`SimHand.read` advances the world by one sensor period.
+Time is simulated: one :meth:`SimHand.read` advances the world by one sensor period. The
+arm logs its height at every step (:meth:`SimArm.z_history`), and each fingertip's contact
+microphone is rendered only for the scenes a world starts (:mod:`.sim_audio`):
+:mod:`.sim_cups` and :mod:`.sim_boxes` build the cup stack and the two boxes on this world.
 """
 from __future__ import annotations
 
@@ -25,8 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from ..device import Frame
-from ..sim.physics import VirtualStrainSensor, calibration_sweep
-from .interfaces import FrameSet, RobotArm, RobotHand
+from ..sim.physics import AudioChain, VirtualStrainSensor, calibration_sweep
+from .interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
+from .sim_audio import AudioBus
 
 RATE_SPS = 80
 FINGERS = ("f0", "f1", "f2", "f3")
@@ -112,11 +116,50 @@ class SimWorld:
     slide: tuple[float, float] | None = None      # (target z, speed)
     shake: tuple[float, float, float, float] | None = None  # (start, amplitude, Hz, duration)
     arm_x_mm: float = 0.0
+    arm_xy_mm: tuple[float, float] = (0.0, 0.0)
+    """Where the arm was sent (:meth:`SimArm.move_to`); ``arm_x_mm`` is the shake's offset."""
     positions: dict[str, float] = field(default_factory=lambda: dict.fromkeys(FINGERS, 0.0))
     max_travel_mm: float = 30.0
     angles_deg: dict[str, float] = field(default_factory=dict)
     heights_mm: dict[str, float] = field(default_factory=dict)
     fault: Fault | None = None
+    audio_seed: int = 0
+    chain_options: dict = field(default_factory=dict)
+    """Keyword arguments of the fingertips' :class:`AudioChain` (gain, mains frequency)."""
+    finger_z_mm: dict[str, float] = field(default_factory=lambda: dict.fromkeys(FINGERS, 0.0))
+    """Each fingertip's vertical offset (:meth:`SimHand.step_z`)."""
+    z_log: list[tuple[float, float]] = field(default_factory=list)
+    _bus: AudioBus | None = None
+
+    @property
+    def audio(self) -> AudioBus:
+        if self._bus is None:
+            rng = np.random.default_rng(np.random.SeedSequence([self.audio_seed, 0xA0D10]))
+            self._bus = AudioBus(AudioChain(**self.chain_options), rng)
+        return self._bus
+
+    def log_z(self) -> None:
+        if self.z_log and self.z_log[-1][0] >= self.t_s:
+            self.z_log[-1] = (self.t_s, self.arm_z_mm)
+        else:
+            self.z_log.append((self.t_s, self.arm_z_mm))
+
+    # Motions start here, so that a world with objects can react to them (hooks).
+    def start_slide(self, dz_mm: float, speed_mm_s: float) -> None:
+        self.slide = (self.arm_z_mm + dz_mm, speed_mm_s)
+        self.log_z()
+
+    def start_shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
+        self.shake = (self.t_s, amplitude_mm, frequency_hz, duration_s)
+
+    def stop_motion(self) -> None:
+        self.slide = None
+        self.shake = None
+        self.arm_x_mm = 0.0
+
+    def step_fingers_z(self, increments_mm: Mapping[str, float]) -> None:
+        for f, d in increments_mm.items():
+            self.finger_z_mm[f] = min(max(self.finger_z_mm[f] + float(d), -5.0), 5.0)
 
     def contact_forces(self) -> dict[str, float]:
         s = self.obj.spec
@@ -125,6 +168,11 @@ class SimWorld:
         if self.obj.broken:                       # crushed: it gives way under the fingers
             f = {k: 0.2 * v for k, v in f.items()}
         return f
+
+    def holds(self) -> bool:
+        """Whether the fingers carry the object: friction x total grip >= its weight."""
+        grip = self.obj.spec.friction * sum(self.contact_forces().values())
+        return grip >= self.obj.spec.mass_kg * 9.81 and not self.obj.broken
 
     def advance(self, dt: float) -> None:
         self.t_s += dt
@@ -147,13 +195,13 @@ class SimWorld:
             dz = math.copysign(min(abs(target - self.arm_z_mm), speed * dt),
                                target - self.arm_z_mm)
             self.arm_z_mm += dz
-            grip = self.obj.spec.friction * sum(self.contact_forces().values())
-            if grip >= self.obj.spec.mass_kg * 9.81 and not self.obj.broken:
+            if self.holds():
                 self.obj.lifted_mm = max(0.0, self.obj.lifted_mm + dz)
             else:
                 self.obj.lifted_mm = 0.0          # slipped out and fell back
             if abs(target - self.arm_z_mm) < 1e-9:
                 self.slide = None
+        self.log_z()
 
 
 class SimHand(RobotHand):
@@ -181,6 +229,14 @@ class SimHand(RobotHand):
 
     def force_model(self, finger: str):
         return self._models[finger]
+
+    def read_audio(self, finger: str) -> AudioBlock:
+        if finger not in FINGERS:
+            raise ValueError(f"no finger {finger!r}; fingers: {FINGERS}")
+        return self.world.audio.read(finger, self.world.t_s)
+
+    def step_z(self, increments_mm: Mapping[str, float]) -> None:
+        self.world.step_fingers_z(increments_mm)
 
     def read(self, timeout: float = 0.5) -> FrameSet | None:
         w = self.world
@@ -216,7 +272,9 @@ class SimArm(RobotArm):
 
     def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
         self._xy = (x_mm, y_mm)
+        self.world.arm_xy_mm = (x_mm, y_mm)
         self.world.arm_z_mm = z_mm
+        self.world.log_z()
 
     def position(self) -> tuple[float, float, float]:
         return (self._xy[0] + self.world.arm_x_mm, self._xy[1], self.world.arm_z_mm)
@@ -224,21 +282,27 @@ class SimArm(RobotArm):
     def slide_z(self, dz_mm: float, speed_mm_s: float) -> None:
         if speed_mm_s <= 0:
             raise ValueError("speed must be > 0")
-        self.world.slide = (self.world.arm_z_mm + dz_mm, speed_mm_s)
+        self.world.start_slide(dz_mm, speed_mm_s)
 
     def shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
-        """The arm's motion only: what a box's contents do is not modelled in this world."""
+        """A kinematic x(t) = A sin(2 pi f t); a world holding a box makes its contents
+        sound (:mod:`.sim_boxes`)."""
         if amplitude_mm <= 0 or frequency_hz <= 0 or duration_s <= 0:
             raise ValueError("amplitude, frequency and duration must be > 0")
-        self.world.shake = (self.world.t_s, amplitude_mm, frequency_hz, duration_s)
+        self.world.start_shake(amplitude_mm, frequency_hz, duration_s)
 
     def moving(self) -> bool:
         return self.world.slide is not None or self.world.shake is not None
 
     def stop(self) -> None:
-        self.world.slide = None
-        self.world.shake = None
-        self.world.arm_x_mm = 0.0
+        self.world.stop_motion()
+
+    def z_history(self, since: float) -> tuple[np.ndarray, np.ndarray]:
+        log = self.world.z_log
+        i = next((k for k, (t, _) in enumerate(log) if t >= since), len(log))
+        # One entry before ``since`` too, so that any time from ``since`` on is bracketed.
+        a = np.array(log[max(0, i - 1):], dtype=float).reshape(-1, 2)
+        return a[:, 0].copy(), a[:, 1].copy()
 
 
 def make_world(spec: ObjectSpec, seed: int, *, hand_seed: int = 100,
