@@ -36,7 +36,9 @@ help:
 	@sed -n '2,9p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
-	@echo "  make lint         ruff on host/ and tests/"
+	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
+	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
+	@echo "  make cad          STL, STEP and PNG of every part into build/cad (CAD_ARGS=--set ...)"
 	@echo "  make vectors      regenerate tests/vectors/protocol_v1.json"
 	@echo "  make clean        remove build outputs (keeps .venv)"
 
@@ -79,6 +81,7 @@ test: setup
 	$(MAKE) --no-print-directory sim
 	$(MAKE) --no-print-directory -C firmware/sim selftest
 	$(MAKE) --no-print-directory lint
+	$(MAKE) --no-print-directory pcb-check
 	$(MAKE) --no-print-directory test-python
 
 test-native: system-packages
@@ -99,10 +102,10 @@ sim: system-packages
 	$(MAKE) --no-print-directory -C firmware/sim
 
 lint: venv
-	$(VENV)/bin/ruff check host tests
+	$(VENV)/bin/ruff check host tests pcb mechanical
 
 # pytest exits 5 when it collected nothing: that must fail, never pass as "green".
-test-python: venv venv-fab
+test-python: venv venv-fab pcb-tools
 	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
 	exit $$rc

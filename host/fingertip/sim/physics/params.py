@@ -245,11 +245,47 @@ class Mount:
         return list(zip(self.wire_hole_x_mm, self.wire_hole_y_mm, strict=True))
 
 
+@dataclass(frozen=True)
+class Cad:
+    """Dimensions that only the CAD needs (mechanical/fingertip_cad): printed walls, screws,
+    the piezo seat, wire channels, the base's pocket and the two-part mold."""
+
+    min_wall_mm: float
+    prism_embed_mm: float
+    cap_base_clearance_mm: float
+    nail_width_mm: float
+    nail_height_mm: float
+    screw_length_mm: float
+    screw_clearance_diameter_mm: float
+    screw_head_diameter_mm: float
+    screw_pilot_diameter_mm: float
+    screw_pilot_depth_mm: float
+    piezo_seat_clearance_mm: float
+    piezo_seat_depth_mm: float
+    piezo_wire_hole_diameter_mm: float
+    wire_channel_width_mm: float
+    wire_channel_depth_mm: float
+    mount_pilot_depth_mm: float
+    pocket_wall_mm: float
+    mold_wall_mm: float
+    mold_key_diameter_mm: float
+    mold_key_length_mm: float
+    mold_key_clearance_mm: float
+    mold_pour_diameter_mm: float
+    mold_vent_diameter_mm: float
+
+    @property
+    def countersink_depth_mm(self) -> float:
+        """Depth of the 90-degree countersink for the cap screw's head."""
+        return (self.screw_head_diameter_mm - self.screw_clearance_diameter_mm) / 2
+
+
 _SECTIONS: dict[str, type] = {
     "geometry": Geometry, "materials": Materials, "base": Base, "gauge": Gauge,
     "bridge": Bridge, "hx711": HX711, "variation": Variation, "hysteresis": Hysteresis,
     "creep": Creep, "thermal": Thermal, "piezo": Piezo, "preamp": Preamp,
     "soundcard": SoundCard, "cap_modes": CapModes, "mains": Mains, "mount": Mount,
+    "cad": Cad,
 }
 
 
@@ -271,6 +307,7 @@ class FingertipParams:
     cap_modes: CapModes
     mains: Mains
     mount: Mount
+    cad: Cad
 
     # --- derived mechanics (SI) -----------------------------------------------------------
 
@@ -357,8 +394,79 @@ def _check(p: FingertipParams, where: str) -> None:
         problems.append("mount wire_hole_x_mm and wire_hole_y_mm differ in length")
     if p.bridge.configuration != "quarter":
         problems.append("only the quarter bridge is modelled")
+    problems += _check_cad(p)
     if problems:
         raise ValueError(f"{where}: " + "; ".join(problems))
+
+
+def _check_cad(p: FingertipParams) -> list[str]:
+    """What makes a parameter set impossible to print or assemble (mechanical/ builds it)."""
+    g, c, m = p.geometry, p.cad, p.mount
+    wall = c.min_wall_mm
+    problems = []
+    stack = g.base_height_mm + g.prism_length_mm + g.cap_roof_mm + p.piezo.thickness_mm \
+        + g.skin_mm
+    if abs(stack - g.outer_height_mm) > 1e-6:
+        problems.append(f"base + prism + cap roof + piezo + skin = {stack:.3f} mm, not "
+                        f"outer_height_mm = {g.outer_height_mm}")
+    if 0 < g.cap_wall_mm < wall:
+        problems.append(f"the cap wall ({g.cap_wall_mm:.2f} mm) is thinner than "
+                        f"min_wall_mm ({wall})")
+    if g.cap_gap_mm <= 0 or g.skin_mm <= 0 or g.nail_proud_mm <= 0:
+        problems.append("cap_gap_mm, skin_mm and nail_proud_mm must be positive")
+    under_head = g.cap_roof_mm - c.piezo_seat_depth_mm - c.countersink_depth_mm
+    if under_head < wall:
+        problems.append(f"the cap roof leaves {under_head:.2f} mm under the screw's countersink "
+                        f"(min_wall_mm {wall})")
+    if c.screw_head_diameter_mm <= c.screw_clearance_diameter_mm:
+        problems.append("screw_head_diameter_mm must exceed screw_clearance_diameter_mm")
+    around_pilot = (g.prism_side_mm - c.screw_pilot_diameter_mm) / 2 - c.wire_channel_depth_mm
+    if around_pilot < wall:
+        problems.append(f"the prism leaves {around_pilot:.2f} mm around the screw's pilot hole")
+    thread = c.screw_length_mm - (g.cap_roof_mm - c.piezo_seat_depth_mm)
+    if not 1.5 * c.screw_pilot_diameter_mm <= thread <= c.screw_pilot_depth_mm - 0.5:
+        problems.append(f"the cap screw engages {thread:.2f} mm: need 1.5 x the pilot diameter "
+                        f"and 0.5 mm short of screw_pilot_depth_mm ({c.screw_pilot_depth_mm})")
+    if c.screw_pilot_depth_mm > g.prism_length_mm - wall:
+        problems.append("the screw's pilot hole runs out of the prism")
+    cap_outer = g.outer_width_mm - 2 * g.skin_mm
+    seat = p.piezo.diameter_mm + 2 * c.piezo_seat_clearance_mm
+    if seat > cap_outer - 2 * wall:
+        problems.append(f"the piezo seat ({seat:.2f} mm) does not fit on the cap roof "
+                        f"({cap_outer:.2f} mm)")
+    if not 0 <= c.piezo_seat_depth_mm < p.piezo.thickness_mm:
+        problems.append("piezo_seat_depth_mm must be in [0, piezo thickness)")
+    if c.piezo_wire_hole_diameter_mm >= g.cap_gap_mm:
+        problems.append("the piezo's wire hole must be narrower than the cap gap it opens into")
+    nail_bottom = g.nail_tip_z_mm - c.nail_height_mm
+    if nail_bottom < c.cap_base_clearance_mm or g.nail_tip_z_mm > g.prism_length_mm \
+            + g.cap_roof_mm:
+        problems.append("the nail must lie on the cap's side (between its rim and its top edge)")
+    if not 0 < c.nail_width_mm <= cap_outer - 2 * wall:
+        problems.append("nail_width_mm must be positive and leave min_wall_mm at the cap's edges")
+    above_nail = g.prism_length_mm + g.cap_roof_mm + p.piezo.thickness_mm + g.skin_mm \
+        - g.nail_tip_z_mm
+    if above_nail < c.mold_vent_diameter_mm + wall:
+        problems.append("no room for the mold's top vent between the nail and the skin's top")
+    if c.cap_base_clearance_mm < max(g.cap_gap_mm, wall):
+        problems.append("cap_base_clearance_mm must be at least the cap gap and min_wall_mm "
+                        "(the mold's floor fills it)")
+    if c.prism_embed_mm <= 0 or c.prism_embed_mm + m.pocket_depth_mm + wall \
+            > g.base_height_mm:
+        problems.append("the prism's root, the pocket and min_wall_mm do not fit in "
+                        "base_height_mm")
+    if not 0 < c.mount_pilot_depth_mm <= g.base_height_mm - wall:
+        problems.append("mount_pilot_depth_mm must leave min_wall_mm under the base's top")
+    if m.base_inradius_mm - g.prism_side_mm / 2 - c.wire_channel_width_mm < wall:
+        problems.append("the base is too small around the prism and its wire channels")
+    for name in ("mold_key_diameter_mm", "mold_pour_diameter_mm"):
+        if getattr(c, name) + 2 * wall > c.mold_wall_mm:
+            problems.append(f"{name} + 2 x min_wall_mm exceeds mold_wall_mm")
+    if not 0 < c.mold_key_clearance_mm < c.mold_key_diameter_mm / 4:
+        problems.append("mold_key_clearance_mm must be positive and small")
+    if c.wire_channel_depth_mm <= 0 or c.wire_channel_width_mm <= 0:
+        problems.append("wire channels need a positive width and depth")
+    return problems
 
 
 def load(path: str | Path | None = None) -> FingertipParams:
