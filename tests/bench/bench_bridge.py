@@ -25,7 +25,10 @@ from fingertip.models.calibrate import fit_calibration, from_arrays
 from fingertip.models.force import ForceModel
 from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 
-SECONDS = 20.0
+WINDOWS = 5
+WINDOW_S = 6.0
+"""CPU share is measured over several windows and the median reported: on a shared VM single
+windows of the same run differ by a third."""
 EXE = str(Path(sys.executable).with_name("fingertip"))
 
 
@@ -75,17 +78,22 @@ def run() -> dict[str, float]:
         while mic.read(timeout=0) is not None:  # the warm-up's audio is not in the window
             pass
         latencies.clear()
-        c0, w0 = _cpu(), time.monotonic()
+        shares = []
         audio_frames = 0
-        t_end = w0 + SECONDS
-        # The user's loop: 20 Hz, taking whatever frames and audio came in meanwhile.
-        while time.monotonic() < t_end:
-            time.sleep(0.05)
-            for ft in devices:
-                ft.drain()
-            while (chunk := mic.read(timeout=0)) is not None:
-                audio_frames += chunk.frames
-        cpu, wall = _cpu() - c0, time.monotonic() - w0
+        w_total = 0.0
+        for _ in range(WINDOWS):
+            c0, w0 = _cpu(), time.monotonic()
+            t_end = w0 + WINDOW_S
+            # The user's loop: 20 Hz, taking whatever frames and audio came in meanwhile.
+            while time.monotonic() < t_end:
+                time.sleep(0.05)
+                for ft in devices:
+                    ft.drain()
+                while (chunk := mic.read(timeout=0)) is not None:
+                    audio_frames += chunk.frames
+            cpu, wall = _cpu() - c0, time.monotonic() - w0
+            shares.append(100 * cpu / wall)
+            w_total += wall
         mic.stop()
         frames = sum(ft.stats.frames_ok for ft in devices)
         lost = sum(ft.stats.frames_lost for ft in devices)
@@ -97,11 +105,13 @@ def run() -> dict[str, float]:
             p.wait(timeout=10)
     lat = np.array(latencies) * 1e3
     return {
-        "bridge_cpu_percent": round(100 * cpu / wall, 2),
+        "bridge_cpu_percent": round(float(np.median(shares)), 2),
+        "bridge_cpu_percent_min": round(min(shares), 2),
+        "bridge_cpu_percent_max": round(max(shares), 2),
         "bridge_latency_p99_ms": round(float(np.percentile(lat, 99)), 3),
         "bridge_latency_p50_ms": round(float(np.percentile(lat, 50)), 3),
-        "bridge_frames_per_s": round(len(latencies) / wall, 1),
-        "bridge_audio_frames_per_s": round(audio_frames / wall, 0),
+        "bridge_frames_per_s": round(len(latencies) / w_total, 1),
+        "bridge_audio_frames_per_s": round(audio_frames / w_total, 0),
         "bridge_frames_lost": lost,
         "bridge_frames_total": frames,
     }
@@ -109,7 +119,10 @@ def run() -> dict[str, float]:
 
 DESCRIPTION = {
     "bridge_cpu_percent": ("share of one core for 4 fingertips at 80 Hz + 44.1 kHz audio + an "
-                           "ONNX MLP force estimate per frame", ("<", 5.0)),
+                           "ONNX MLP force estimate per frame (median of 6 s windows)",
+                           ("<", 5.0)),
+    "bridge_cpu_percent_min": ("same, lowest window", None),
+    "bridge_cpu_percent_max": ("same, highest window", None),
     "bridge_latency_p99_ms": ("frame's last byte read -> its force estimate in user code, p99",
                               ("<", 1.0)),
     "bridge_latency_p50_ms": ("same, median", None),

@@ -26,6 +26,29 @@ def test_regression_round_trip(tmp_path):
         run(np.zeros(3))
 
 
+def test_folded_normalisation_holds_at_the_24_bit_extremes(tmp_path):
+    """The export folds the input normalisation and the output scaling into the first and
+    last layers (fewer nodes per call); float32 must still match the float64 reference,
+    including untared counts (offsets of 100 standard deviations) and full-scale inputs."""
+    import onnx  # the train extra, part of the dev install
+    rng = np.random.default_rng(3)
+    x = rng.normal(0, 2e4, (800, 4)) + 2e6          # untared: mean / std = 100
+    y = np.stack([x[:, 0] - x[:, 2], x[:, 1] - x[:, 3]], axis=1) * 1e-5
+    m = train_mlp(x, y, hidden=(16, 16), epochs=100, seed=2)
+    path = to_onnx(m, tmp_path / "f.onnx")
+    ops = [n.op_type for n in onnx.load(str(path)).graph.node]
+    assert ops == ["MatMul", "Add", "Relu", "MatMul", "Add", "Relu", "MatMul", "Add"]
+    run = OnnxModel(path)
+    probe = np.concatenate([x[:50], np.full((1, 4), 8_388_607.0), np.full((1, 4), -8_388_608.0),
+                            np.zeros((1, 4))])
+    ref, out = m.forward(probe), run(probe)
+    scale = np.abs(m.forward(x)).max()
+    assert np.all(np.isfinite(out))
+    assert np.max(np.abs(out[:50] - ref[:50])) < 1e-4 * scale
+    # Far outside the training range the outputs are large; float32 keeps them to 1e-5.
+    assert np.max(np.abs(out[50:] - ref[50:]) / np.maximum(np.abs(ref[50:]), scale)) < 1e-5
+
+
 def test_classification_round_trip(tmp_path):
     rng = np.random.default_rng(1)
     centres = rng.normal(0, 3, (3, 5))

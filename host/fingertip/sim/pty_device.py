@@ -18,6 +18,11 @@ from pathlib import Path
 
 from .virtual_firmware import VirtualFirmware
 
+IDLE_POLL_S = 0.05
+"""Longest sleep of the serving loop (how long stop() may wait)."""
+WAKE_MARGIN_S = 1e-4
+"""Wake this much after a due conversion, so that the device clock has passed it."""
+
 log = logging.getLogger(__name__)
 
 
@@ -151,11 +156,18 @@ class PtyDevice:
         while not self._stop.is_set():
             with self._lock:
                 master = self._master
+                due = self.firmware.next_due_us
             if master is None:
                 time.sleep(0.01)
                 continue
+            # Sleep until the device's next conversion (or a byte from the host): a fixed
+            # short poll would wake this process hundreds of times a second for nothing, and
+            # on a shared machine those wake-ups cost the bridge under test its caches.
+            timeout = IDLE_POLL_S if due is None else min(max(
+                (due - self._device_us()) / (1e6 * self.speed * (1 + self.clock_skew))
+                + WAKE_MARGIN_S, 0.0), IDLE_POLL_S)
             try:
-                ready, _, _ = select.select([master], [], [], 0.002)
+                ready, _, _ = select.select([master], [], [], timeout)
             except (OSError, ValueError):
                 continue
             with self._lock:

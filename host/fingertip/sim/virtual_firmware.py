@@ -255,6 +255,18 @@ class VirtualFirmware:
         self._settle_until_us = now + SETTLE_PERIODS * period
         self._deadline_us = self._settle_until_us + period + period // 2
 
+    @property
+    def next_due_us(self) -> int | None:
+        """Device time of the next thing the device does on its own (a conversion, a chip
+        deadline, a statistics frame), or None when nothing is due: a host serving the
+        device can sleep until then instead of polling."""
+        times = []
+        if self.powered:
+            times += [self._next_tick_us, self._deadline_us]
+        if self.streaming:
+            times.append(self._next_stats_us)
+        return min(times) if times else None
+
     def advance(self, to_us: int) -> bytes:
         """Run device time forward to ``to_us``; return what the device sends meanwhile."""
         out = bytearray()
