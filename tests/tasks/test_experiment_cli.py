@@ -1,6 +1,8 @@
 """``fingertip experiment``: runs, prints the paper's tables, refuses bad arguments."""
 from __future__ import annotations
 
+import re
+
 import json
 
 import pytest
@@ -12,9 +14,16 @@ def test_pinch_prints_the_table(capsys):
     assert main(["experiment", "pinch", "--trials", "2", "--seed", "3", "--object", "chip",
                  "-q"]) == 0
     out = capsys.readouterr().out
-    assert "| object | F_th | trials | success | broken | dropped |" in out
-    assert "| chip | 0.1 N | 2 | 2/2 | 0 | 0 |" in out
+    assert ("| object | demonstrated at | F_th (estimated) | trials | success | broken | "
+            "dropped |") in out
+    assert re.search(r"\| chip \| 0\.1 N \| 0\.0\d\d N \| 2 \| 2/2 \| 0 \| 0 \|", out), out
     assert "tofu" not in out.split("\n\n", 1)[1]
+
+
+def test_pinch_with_a_given_threshold_skips_the_demonstration(capsys):
+    assert main(["experiment", "pinch", "--trials", "1", "--object", "chip", "--threshold",
+                 "0.1", "-q"]) == 0
+    assert "| chip | - | 0.100 N | 1 | 1/1 |" in capsys.readouterr().out
 
 
 def test_cups_writes_json(tmp_path, capsys):

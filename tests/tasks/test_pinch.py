@@ -1,4 +1,5 @@
-"""The paper's pinch protocol on the simulated delta hand: tofu at 0.5 N, chip at 0.1 N."""
+"""The paper's pinch protocol on the simulated delta hand: one demonstration (tofu held at
+0.5 N, a chip at 0.1 N) gives F_th, then 25 trials each."""
 from __future__ import annotations
 
 import math
@@ -6,6 +7,7 @@ import math
 import pytest
 
 from fingertip.tasks import PinchConfig, PinchOutcome, demonstrate_threshold, pinch
+from fingertip.tasks.sim_demo import demonstrate
 from fingertip.tasks.sim_world import CHIP, TOFU, Fault, make_world
 
 TRIALS = 25
@@ -14,7 +16,12 @@ CASES = {"tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_pinch_trials_succeed_without_breaking(name):
-    spec, f_th, step = CASES[name]
+    spec, firmness, step = CASES[name]
+    demo = demonstrate(spec, firmness, seed=100_000, step_mm=step)
+    assert not demo.broken
+    # The estimate carries the virtual fingertips' errors: near, not at, the held force.
+    assert 0.4 * firmness < demo.f_th_n < 1.2 * firmness, demo.f_th_n
+    f_th = demo.f_th_n
     held, latencies = 0, []
     for seed in range(TRIALS):
         world, hand, arm = make_world(spec, seed)
@@ -22,11 +29,20 @@ def test_pinch_trials_succeed_without_breaking(name):
         assert res.ok, (seed, res.outcome, res.detail)
         assert not world.obj.broken, (seed, world.obj.peak_force_n)
         assert world.obj.lifted_mm == pytest.approx(20.0)
-        assert all(v >= 0.8 * f_th for v in res.forces_n.values()), res.forces_n
+        # The hold re-closes a finger below 0.8 F_th, so the last frame may sit just under.
+        assert all(v >= 0.7 * f_th for v in res.forces_n.values()), res.forces_n
         held += 1
         latencies += res.latencies_ms
     assert held == TRIALS
     assert sorted(latencies)[len(latencies) // 2] < 5.0      # ms, frame to command
+
+
+def test_simulated_demonstration_records_the_fingertips():
+    demo = demonstrate(TOFU, 0.5, seed=7, step_mm=0.05)
+    assert len(demo.rows) > 80 and set(demo.rows[0]) == {"f0", "f1", "f2", "f3"}
+    assert max(max(r.values()) for r in demo.rows) > demo.f_th_n
+    with pytest.raises(ValueError, match="crush"):
+        demonstrate(CHIP, 0.5, seed=7, step_mm=0.005)
 
 
 def test_demonstration_gives_threshold():

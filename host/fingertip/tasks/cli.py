@@ -49,7 +49,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     total = n * len(objects) if args.protocol == "pinch" else n
     bar = Progress(total, f"experiment {args.protocol}", enabled=not args.quiet)
     if args.protocol == "pinch":
-        results = [ex.run_pinch(o, n, args.seed, bar.step) for o in objects]
+        results = [ex.run_pinch(o, n, args.seed, bar.step, f_th_n=args.threshold)
+                   for o in objects]
         table = ex.pinch_table(results)
         data = {"protocol": "pinch", "seed": args.seed,
                 "objects": [r.to_dict() for r in results]}
@@ -79,7 +80,8 @@ def add_parsers(sub) -> None:
                                           "cups, shake) in simulation",
                        description=_cmd_experiment.__doc__)
     p.add_argument("protocol", choices=("pinch", "cups", "shake"),
-                   help="pinch: tofu at 0.5 N and a chip at 0.1 N; cups: count rims and "
+                   help="pinch: one demonstration (tofu held at 0.5 N, a chip at 0.1 N) "
+                        "gives F_th, then each trial closes to it and lifts; cups: count rims and "
                         "unstack 1-3 cups; shake: find and open the box with the target "
                         "material")
     p.add_argument("--trials", type=number(int, 1, 10_000), metavar="N",
@@ -89,6 +91,8 @@ def add_parsers(sub) -> None:
                    help="seed of the first trial (default 0)")
     p.add_argument("--object", choices=("tofu", "chip", "both"), default="both",
                    help="pinch only: which object (default both)")
+    p.add_argument("--threshold", type=number(float, 0.0, 10.0, lo_open=True), metavar="N",
+                   help="pinch only: use this F_th in newtons instead of a demonstration")
     p.add_argument("--json", type=Path, metavar="FILE",
                    help="also write every trial and the summary as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")

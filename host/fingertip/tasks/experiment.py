@@ -20,6 +20,7 @@ from .pinch import PinchConfig, pinch
 from .shake_pick import ShakeConfig, shake_and_pick
 from .sim_boxes import BOX_X_MM, MATERIALS, make_box_world, shake_model_path
 from .sim_cups import approach_height, make_cup_world
+from .sim_demo import demonstrate
 from .sim_world import CHIP, TOFU, ObjectSpec, make_world
 
 log = logging.getLogger(__name__)
@@ -29,7 +30,10 @@ Progress = Callable[[str], None]
 
 PINCH_OBJECTS: dict[str, tuple[ObjectSpec, float, float]] = {
     "tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}
-"""Object -> (spec, F_th from the paper, closing step in mm)."""
+"""Object -> (spec, the paper's pinch force (the demonstrator's firmness), closing step in
+mm)."""
+DEMO_SEED_OFFSET = 100_000
+"""The demonstration's placement seed is the trials' first seed plus this: never a trial."""
 BOX_GRIP_Z_MM = 40.0
 
 
@@ -47,7 +51,10 @@ def _modes(trials: list[dict]) -> dict[str, int]:
 class PinchTrials:
     object: str
     f_th_n: float
+    """The threshold the controller used (from the demonstration unless given)."""
     seed: int
+    demo_firmness_n: float | None = None
+    """The demonstrator's true grip force per finger (None: F_th was given, no demo)."""
     trials: list[dict] = field(default_factory=list)
     latencies_ms: list[float] = field(default_factory=list)
 
@@ -57,7 +64,8 @@ class PinchTrials:
 
     def summary(self) -> dict:
         lat = np.asarray(self.latencies_ms)
-        return {"object": self.object, "f_th_n": self.f_th_n, "trials": len(self.trials),
+        return {"object": self.object, "f_th_n": self.f_th_n,
+                "demo_firmness_n": self.demo_firmness_n, "trials": len(self.trials),
                 "success": self.success, "broken": sum(t["broken"] for t in self.trials),
                 "dropped": sum(t["dropped"] for t in self.trials),
                 "max_force_n": max((t["peak_true_n"] for t in self.trials), default=0.0),
@@ -70,10 +78,19 @@ class PinchTrials:
 
 
 def run_pinch(obj: str = "tofu", trials: int = 25, seed: int = 0,
-              progress: Progress | None = None) -> PinchTrials:
-    """The paper's pinch: close to F_th, lift 20 mm; success = held, lifted, unbroken."""
-    spec, f_th, step = PINCH_OBJECTS[obj]
-    out = PinchTrials(obj, f_th, seed)
+              progress: Progress | None = None, f_th_n: float | None = None) -> PinchTrials:
+    """The paper's pinch: one demonstration at the paper's force gives F_th (unless
+    ``f_th_n`` is given), then each trial closes to F_th and lifts 20 mm; success = held,
+    lifted, unbroken."""
+    spec, firmness, step = PINCH_OBJECTS[obj]
+    if f_th_n is None:
+        demo = demonstrate(spec, firmness, seed=seed + DEMO_SEED_OFFSET, step_mm=step)
+        if demo.broken:
+            raise RuntimeError(f"the {obj} broke during its demonstration")
+        out = PinchTrials(obj, demo.f_th_n, seed, demo_firmness_n=firmness)
+    else:
+        out = PinchTrials(obj, f_th_n, seed)
+    f_th = out.f_th_n
     for s in range(seed, seed + trials):
         world, hand, arm = make_world(spec, s)
         cfg = PinchConfig(f_th, step_mm=step)
@@ -96,11 +113,13 @@ def run_pinch(obj: str = "tofu", trials: int = 25, seed: int = 0,
 
 
 def pinch_table(results: list[PinchTrials]) -> str:
-    lines = ["| object | F_th | trials | success | broken | dropped | max true force | "
-             "loop latency p50 / p99 |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| object | demonstrated at | F_th (estimated) | trials | success | broken | "
+             "dropped | max true force | loop latency p50 / p99 |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in results:
         s = r.summary()
-        lines.append(f"| {s['object']} | {s['f_th_n']:g} N | {s['trials']} | "
+        demo = "-" if s["demo_firmness_n"] is None else f"{s['demo_firmness_n']:g} N"
+        lines.append(f"| {s['object']} | {demo} | {s['f_th_n']:.3f} N | {s['trials']} | "
                      f"{s['success']}/{s['trials']} | {s['broken']} | {s['dropped']} | "
                      f"{s['max_force_n']:.2f} N | {s['latency_p50_ms']:.2f} / "
                      f"{s['latency_p99_ms']:.2f} ms |")
