@@ -36,8 +36,9 @@ class FrameClock:
     rate is taken as nominal. ``step_s``: when every point of the last ``step_bins`` bins
     arrives more than this later than the fit, for at least half as long in host time, the
     stream has jumped (frames lost upstream without a flag, a suspended machine): history is
-    dropped and ``steps`` counted. The fit is redone when a bin completes, when a point falls
-    under the line, and at least every ``refit_every`` points (cheap enough for a callback).
+    dropped and ``steps`` counted. The fit is redone when a point falls under the line, at least
+    every ``refit_every`` points, and at each completed bin of the first few (cheap enough
+    for a callback).
     """
 
     def __init__(self, nominal_rate: float, *, window_s: float = 20.0, bin_s: float = 0.25,
@@ -123,8 +124,12 @@ class FrameClock:
             while bins and (b - bins[0][0]) * self.bin_s > self.window_s:
                 bins.popleft()
         self._since_fit += 1
-        if (new_bin or not self._have_fit or self._since_fit >= self.refit_every
-                or lag < self._lag_at(x) - 1e-4):
+        # A completed bin only moves the fit while the history is short; later the periodic
+        # refit (every refit_every points) follows drift, and a point under the line (the
+        # envelope moved down) refits at once. Each refit walks every bin: doing it per bin
+        # was half the bridge's per-frame work.
+        if (not self._have_fit or (new_bin and len(bins) <= 4)
+                or self._since_fit >= self.refit_every or lag < self._lag_at(x) - 1e-4):
             self._refit()
 
     def to_host(self, index: float) -> float:

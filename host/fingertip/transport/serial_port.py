@@ -30,6 +30,9 @@ class SerialStream:
         # wake-up per burst of bytes instead of pyserial's byte-count-driven loop.
         try:
             self._fd: int | None = self._ser.fileno()
+            # One poll object for the stream's life: no fd list to build per wake-up.
+            self._poll = select.poll()
+            self._poll.register(self._fd, select.POLLIN)
         except (AttributeError, serial.SerialException, OSError):
             self._fd = None
 
@@ -42,8 +45,7 @@ class SerialStream:
             raise TransportClosed(f"{self.name} is closed")
         if self._fd is not None:
             try:
-                ready, _, _ = select.select([self._fd], [], [], timeout)
-                if not ready:
+                if not self._poll.poll(timeout * 1000.0):
                     return b""
                 data = os.read(self._fd, max_bytes)
             except BlockingIOError:
