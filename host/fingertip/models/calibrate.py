@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from .mlp import MLP, to_onnx, train_mlp
+from .onnx_io import onnx_builder, open_session, save_graph
 
 CHANNELS = 4
 INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
@@ -784,12 +785,7 @@ def fit_model(name: str, counts: np.ndarray, force: np.ndarray, *,
 
 def _linear_map_onnx(m: LinearFeatureMap, path: str | Path, metadata: dict,
                      opset: int = 17) -> Path:
-    try:
-        import onnx
-        from onnx import TensorProto, helper, numpy_helper
-    except ImportError as e:
-        raise ImportError("exporting needs the 'onnx' package: pip install 'fingertip[train]'"
-                          ) from e
+    _, TensorProto, helper, numpy_helper = onnx_builder()
     f32 = np.float32
     d = len(m.x_mean)
     inits = [numpy_helper.from_array(m.x_mean.astype(f32), "x_mean"),
@@ -837,16 +833,7 @@ def _linear_map_onnx(m: LinearFeatureMap, path: str | Path, metadata: dict,
         nodes, f"fingertip_force_{m.name}",
         [helper.make_tensor_value_info("counts", TensorProto.FLOAT, ["batch", d])],
         [helper.make_tensor_value_info("force", TensorProto.FLOAT, ["batch", 2])], inits)
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)],
-                              producer_name="fingertip")
-    model.ir_version = min(model.ir_version, 9)
-    helper.set_model_props(model, {k: v if isinstance(v, str) else json.dumps(v)
-                                   for k, v in metadata.items()})
-    onnx.checker.check_model(model)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(model, str(path))
-    return path
+    return save_graph(graph, path, metadata, opset)
 
 
 # --- evaluation ---------------------------------------------------------------------------
@@ -879,16 +866,6 @@ def angle_keys(data: CalibrationData, step_deg: float = 10.0) -> np.ndarray:
     return out
 
 
-def _session(path: Path):
-    import onnxruntime as ort
-
-    opts = ort.SessionOptions()
-    opts.intra_op_num_threads = 1
-    opts.inter_op_num_threads = 1
-    opts.log_severity_level = 3
-    return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
-
-
 def measure_latency(paths: dict[str, Path] | str | Path, sample: np.ndarray, *,
                     single_calls: int = 2000, batch: int = 1000, batch_repeats: int = 30,
                     rounds: int = 5):
@@ -906,7 +883,7 @@ def measure_latency(paths: dict[str, Path] | str | Path, sample: np.ndarray, *,
     many = np.ascontiguousarray(np.resize(x, (batch, x.shape[1])))
     sessions = {}
     for name, path in named.items():
-        sess = _session(path)
+        sess = open_session(path)
         inp = sess.get_inputs()[0].name
         for _ in range(100):
             sess.run(None, {inp: one})
@@ -945,7 +922,7 @@ def extreme_inputs(seed: int = 0, random_rows: int = 200) -> np.ndarray:
 def float32_error(path: str | Path, model, counts: np.ndarray) -> tuple[float, float]:
     """(max |ONNX float32 - float64 reference| in N on ``counts``, max of the same relative
     to max(|reference|, 1 N) on :func:`extreme_inputs`)."""
-    sess = _session(Path(path))
+    sess = open_session(Path(path))
     name = sess.get_inputs()[0].name
 
     def run(x):

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .onnx_io import onnx_builder, save_graph
+
 log = logging.getLogger(__name__)
 
 
@@ -259,12 +261,7 @@ class SmallResNet:
     def to_onnx(self, path: str | Path, *, input_name: str = "spectrogram",
                 output_name: str = "probabilities", metadata: dict | None = None,
                 opset: int = 17) -> Path:
-        try:
-            import onnx
-            from onnx import TensorProto, helper, numpy_helper
-        except ImportError as e:
-            raise ImportError("exporting needs the 'onnx' package: pip install "
-                              "'fingertip[train]'") from e
+        _, TensorProto, helper, numpy_helper = onnx_builder()
         f32 = np.float32
         inits = [numpy_helper.from_array(np.array(self.x_mean, f32), "x_mean"),
                  numpy_helper.from_array(np.array(self.x_std, f32), "x_std"),
@@ -322,22 +319,12 @@ class SmallResNet:
                                            ["batch", sp.frames, sp.bands])],
             [helper.make_tensor_value_info(output_name, TensorProto.FLOAT,
                                            ["batch", sp.n_classes])], inits)
-        model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)],
-                                  producer_name="fingertip")
-        model.ir_version = min(model.ir_version, 9)
         meta = {"task": "classification", "classes": json.dumps(self.classes),
                 "architecture": json.dumps({"type": "small_resnet",
                                             "channels": list(sp.channels), "head": sp.head,
                                             "frames": sp.frames, "bands": sp.bands}),
                 "n_params": str(self.n_params)}
-        meta.update({k: v if isinstance(v, str) else json.dumps(v)
-                     for k, v in (metadata or {}).items()})
-        helper.set_model_props(model, meta)
-        onnx.checker.check_model(model)
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        onnx.save(model, str(path))
-        return path
+        return save_graph(graph, path, {**meta, **(metadata or {})}, opset)
 
 
 def _softmax(z: np.ndarray) -> np.ndarray:

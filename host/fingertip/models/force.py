@@ -28,6 +28,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .onnx_io import open_session
+
 INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
 
 
@@ -98,25 +100,8 @@ class ForceModel:
 
     def __init__(self, path: str | Path, *, gain: int | None = None, threads: int = 1,
                  range_margin: float = 0.1) -> None:
-        import onnxruntime as ort
-
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"no force model at {path}")
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = threads
-        opts.inter_op_num_threads = 1
-        # No spin-waiting: a frame arrives every few ms, and spinning threads between runs
-        # would burn a core's worth of cycles for nothing.
-        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
-        opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
-        opts.log_severity_level = 3
-        try:
-            self._session = ort.InferenceSession(str(path), opts,
-                                                 providers=["CPUExecutionProvider"])
-        except Exception as e:  # onnxruntime raises its own exception types
-            raise ValueError(f"{path} is not a usable ONNX model: {e}") from e
-        self.path = path
+        self._session = open_session(path, threads, what="force model")
+        self.path = Path(path)
         self._local = threading.local()
         inp = self._session.get_inputs()[0]
         self._input = inp.name

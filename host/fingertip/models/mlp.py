@@ -18,6 +18,8 @@ from typing import Literal
 
 import numpy as np
 
+from .onnx_io import open_session, onnx_builder, save_graph
+
 log = logging.getLogger(__name__)
 
 Task = Literal["regression", "classification"]
@@ -206,12 +208,7 @@ def to_onnx(model: MLP, path: str | Path, *, input_name: str = "features",
             output_name: str | None = None, metadata: dict | None = None,
             opset: int = 17) -> Path:
     """Write the MLP as an ONNX graph (float32, any batch size). Needs the ``onnx`` package."""
-    try:
-        import onnx
-        from onnx import TensorProto, helper, numpy_helper
-    except ImportError as e:  # the runtime does not need onnx, only training does
-        raise ImportError("exporting needs the 'onnx' package: pip install 'fingertip[train]'"
-                          ) from e
+    _, TensorProto, helper, numpy_helper = onnx_builder()
     out_name = output_name or ("probabilities" if model.task == "classification"
                                else "outputs")
     d = model.weights[0].shape[0]
@@ -235,43 +232,17 @@ def to_onnx(model: MLP, path: str | Path, *, input_name: str = "features",
         nodes, "fingertip_mlp",
         [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, ["batch", d])],
         [helper.make_tensor_value_info(out_name, TensorProto.FLOAT, ["batch", k])], inits)
-    onnx_model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)],
-                                   producer_name="fingertip")
-    onnx_model.ir_version = min(onnx_model.ir_version, 9)  # readable by older runtimes too
     meta = {"task": model.task, "classes": json.dumps(model.classes),
             "hidden": json.dumps(list(model.hidden))}
-    meta.update({k2: v if isinstance(v, str) else json.dumps(v)
-                 for k2, v in (metadata or {}).items()})
-    helper.set_model_props(onnx_model, meta)
-    onnx.checker.check_model(onnx_model)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(onnx_model, str(path))
-    return path
+    return save_graph(graph, path, {**meta, **(metadata or {})}, opset)
 
 
 class OnnxModel:
     """An ONNX model run with onnxruntime on the CPU: single rows or batches, float32."""
 
     def __init__(self, path: str | Path, threads: int = 1) -> None:
-        import onnxruntime as ort
-
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"no model file at {path}")
-        opts = ort.SessionOptions()
-        opts.intra_op_num_threads = threads  # a control loop wants one predictable core
-        opts.inter_op_num_threads = 1
-        # No spin-waiting: a frame arrives every few ms, and spinning threads between runs
-        # would burn a core's worth of cycles for nothing.
-        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
-        opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
-        try:
-            self.session = ort.InferenceSession(str(path), opts,
-                                                providers=["CPUExecutionProvider"])
-        except Exception as e:  # onnxruntime raises its own exception types
-            raise ValueError(f"{path} is not a usable ONNX model: {e}") from e
-        self.path = path
+        self.session = open_session(path, threads)
+        self.path = Path(path)
         inp = self.session.get_inputs()[0]
         self.input_name = inp.name
         self.n_features = inp.shape[-1] if isinstance(inp.shape[-1], int) else None

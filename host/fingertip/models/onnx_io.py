@@ -1,0 +1,58 @@
+"""ONNX in and out, in one place: writing a graph to a file (needs the ``onnx`` package, the
+``train`` extra) and opening a file in onnxruntime with the project's session options."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+
+def onnx_builder() -> tuple[Any, Any, Any, Any]:
+    """``(onnx, TensorProto, helper, numpy_helper)``, or a clear ImportError: the runtime
+    needs only onnxruntime, exporting needs the onnx package."""
+    try:
+        import onnx
+        from onnx import TensorProto, helper, numpy_helper
+    except ImportError as e:
+        raise ImportError("exporting needs the 'onnx' package: pip install 'fingertip[train]'"
+                          ) from e
+    return onnx, TensorProto, helper, numpy_helper
+
+
+def save_graph(graph: Any, path: str | Path, metadata: dict[str, Any], opset: int = 17) -> Path:
+    """Wrap ``graph`` in a model (opset ``opset``, IR version at most 9 so that older runtimes
+    read it too), store ``metadata`` as string properties (non-strings as JSON), check it,
+    and write it to ``path`` (parent folders created)."""
+    onnx, _, helper, _ = onnx_builder()
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", opset)],
+                              producer_name="fingertip")
+    model.ir_version = min(model.ir_version, 9)
+    helper.set_model_props(model, {k: v if isinstance(v, str) else json.dumps(v)
+                                   for k, v in metadata.items()})
+    onnx.checker.check_model(model)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    onnx.save(model, str(path))
+    return path
+
+
+def open_session(path: str | Path, threads: int = 1, *, what: str = "model file") -> Any:
+    """An onnxruntime CPU session on ``path``: FileNotFoundError when it is missing
+    ("no {what} at ..."), ValueError when onnxruntime cannot load it."""
+    import onnxruntime as ort
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no {what} at {path}")
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads = threads  # a control loop wants one predictable core
+    opts.inter_op_num_threads = 1
+    # No spin-waiting: a frame arrives every few ms, and spinning threads between runs
+    # would burn a core's worth of cycles for nothing.
+    opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    opts.add_session_config_entry("session.inter_op.allow_spinning", "0")
+    opts.log_severity_level = 3
+    try:
+        return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+    except Exception as e:  # onnxruntime raises its own exception types
+        raise ValueError(f"{path} is not a usable ONNX model: {e}") from e
