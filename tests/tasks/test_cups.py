@@ -59,3 +59,25 @@ def test_recipe_needs_a_target():
     world, hand, arm = make_cup_world(0)
     with pytest.raises(ValueError):
         unstack(hand, arm, 0)
+
+
+def test_a_robot_without_audio_or_z_log_is_refused_before_anything_moves():
+    from fingertip.tasks.interfaces import RobotArm, RobotHand
+
+    world, hand, arm = make_cup_world(2)
+    arm.move_to(0.0, 0.0, approach_height(world))
+    start = arm.position()
+
+    class DeafHand(type(hand)):
+        read_audio = RobotHand.read_audio
+        step_z = RobotHand.step_z
+
+    class ArmWithoutLog(type(arm)):
+        z_history = RobotArm.z_history
+
+    hand.__class__, arm.__class__ = DeafHand, ArmWithoutLog
+    with pytest.raises(NotImplementedError, match=r"unstacking cups needs DeafHand\.read_audio, "
+                       r"DeafHand\.step_z, ArmWithoutLog\.z_history: implement them"):
+        unstack(hand, arm, 2)
+    assert arm.position() == start and not arm.moving()
+    assert all(p == 0.0 for p in hand.positions().values())

@@ -51,6 +51,22 @@ def test_shake_drives_the_box_contents(clf):
     assert world.held is None and world.opened is None        # put back, not opened
 
 
+def test_a_hand_without_audio_is_refused_before_anything_moves(clf):
+    from fingertip.tasks.interfaces import RobotHand
+
+    world, hand, arm = make_box_world(6)
+    start = arm.position()
+
+    class DeafHand(type(hand)):
+        read_audio = RobotHand.read_audio
+
+    hand.__class__ = DeafHand
+    with pytest.raises(NotImplementedError, match=r"reading a box needs DeafHand\.read_audio"):
+        shake_and_pick(hand, arm, clf, [(BOX_X_MM[0], 0.0, BOX_GRIP_Z_MM)], "screws")
+    assert arm.position() == start and world.held is None
+    assert all(p == 0 for p in hand.positions().values())
+
+
 def test_no_box_is_a_grasp_failure(clf):
     world, hand, arm = make_box_world(4)
     cfg = ShakeConfig()

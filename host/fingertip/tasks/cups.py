@@ -22,7 +22,7 @@ import numpy as np
 
 from ..events import heights_at, vibration_onsets
 from .grip import Grip, PinchConfig, PinchResult
-from .interfaces import RobotArm, RobotHand
+from .interfaces import RobotArm, RobotHand, require
 
 log = logging.getLogger(__name__)
 
@@ -92,6 +92,8 @@ class CupResult:
 
 def count_rims(hand: RobotHand, arm: RobotArm, cfg: CupConfig) -> RimCount:
     """Slide the nail down ``cfg.slide_mm`` from where the arm is; rims from vibrations."""
+    require("counting rims", hand, arm, hand_methods=("read_audio",),
+            arm_methods=("z_history",))
     blocks = [hand.read_audio(cfg.nail_finger)]       # starts (or flushes) the capture
     arm.slide_z(-cfg.slide_mm, cfg.slide_speed_mm_s)
     t_end = None
@@ -125,6 +127,8 @@ def unstack(hand: RobotHand, arm: RobotArm, target: int, cfg: CupConfig | None =
     cfg = cfg or CupConfig()
     if not 1 <= target:
         raise ValueError("target must be 1 or more cups")
+    require("unstacking cups", hand, arm, hand_methods=("read_audio", "step_z"),
+            arm_methods=("z_history",))
     rims = count_rims(hand, arm, cfg)
     res = CupResult(target, rims)
     if not rims.ok:

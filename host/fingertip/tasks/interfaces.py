@@ -133,3 +133,18 @@ class RobotArm(abc.ABC):
         increasing, on the clock of the frames and the audio (the paper synchronises the
         rims' vibration onsets with the robot's Z). Needed by the cup recipe."""
         raise NotImplementedError(f"{type(self).__name__} keeps no z(t) log")
+
+
+def require(recipe: str, hand: RobotHand, arm: RobotArm, *, hand_methods: tuple[str, ...] = (),
+            arm_methods: tuple[str, ...] = ()) -> None:
+    """Refuse to start ``recipe`` before anything moves when the robot lacks one of the
+    optional capabilities it needs (a method still the base class's): the error names them
+    all, instead of surfacing mid-task with an object in the fingers."""
+    missing = [f"{type(hand).__name__}.{m}" for m in hand_methods
+               if getattr(type(hand), m) is getattr(RobotHand, m)]
+    missing += [f"{type(arm).__name__}.{m}" for m in arm_methods
+                if getattr(type(arm), m) is getattr(RobotArm, m)]
+    if missing:
+        raise NotImplementedError(f"{recipe} needs {', '.join(missing)}: implement "
+                                  f"{'it' if len(missing) == 1 else 'them'} for this robot "
+                                  "(docs/tasks.md has a skeleton)")

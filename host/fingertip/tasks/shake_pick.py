@@ -24,7 +24,7 @@ import numpy as np
 from ..models.classify import Prediction, VibrationClassifier, majority_vote
 from ..models.features import as_recording
 from .grip import Grip, PinchConfig, PinchResult
-from .interfaces import RobotArm, RobotHand
+from .interfaces import RobotArm, RobotHand, require
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +115,7 @@ class ShakePickResult:
 def read_box(hand: RobotHand, arm: RobotArm, clf: VibrationClassifier,
              xyz: tuple[float, float, float], cfg: ShakeConfig) -> BoxReading:
     """Grip, lift and shake the box at ``xyz``; classify its content; put it back."""
+    require("reading a box", hand, arm, hand_methods=("read_audio",))
     out = BoxReading(xyz[0])
     arm.move_to(*xyz)
     grip = Grip(hand, cfg.grip, fingers=cfg.fingers, arm=arm)
