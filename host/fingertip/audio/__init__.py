@@ -17,7 +17,7 @@ from .blocks import BlockSource
 from .chunk import AudioStats, Chunk
 from ..clockfit import FrameClock
 from .devices import (
-    InputDevice, alsa_card_of, find_alsa_card, find_input_device, import_sounddevice,
+    InputDevice, alsa_card_of, alsa_cards, find_alsa_card, find_input_device, import_sounddevice,
     list_input_devices, refresh_devices, supported_rates, usb_hub_of, usb_path_of_alsa_card,
     usb_serial_of_alsa_card,
 )
@@ -36,5 +36,5 @@ __all__ = [
     "FrameClock", "InputDevice", "RingBuffer", "RingSource", "SimulatedSource",
     "SoundDeviceSource", "alsa_card_of", "find_alsa_card", "find_input_device",
     "import_sounddevice", "list_input_devices", "refresh_devices", "supported_rates",
-    "usb_hub_of", "usb_path_of_alsa_card", "usb_serial_of_alsa_card",
+    "alsa_cards", "usb_hub_of", "usb_path_of_alsa_card", "usb_serial_of_alsa_card",
 ]

@@ -223,21 +223,30 @@ def usb_hub_of(usb_path: str) -> str | None:
     return dev.rsplit(".", 1)[0]
 
 
-def find_alsa_card(*, usb_serial: str | None = None, usb_path: str | None = None,
-                   sysfs_root: str | os.PathLike = "/sys") -> int:
-    """The ALSA card number of the USB sound card with this serial number or USB path."""
-    if (usb_serial is None) == (usb_path is None):
-        raise ValueError("give exactly one of usb_serial or usb_path")
+def alsa_cards(sysfs_root: str | os.PathLike = "/sys"
+               ) -> list[tuple[int, str | None, str | None]]:
+    """Every ALSA card in sysfs as ``(card number, USB path, USB serial)`` (None where the
+    card is not on USB or has no serial), in card order."""
     cls = Path(sysfs_root) / "class" / "sound"
-    seen = []
-    hits = []
+    out = []
     for card in sorted(cls.glob("card*")) if cls.is_dir() else []:
         try:
             n = int(card.name[4:])
         except ValueError:
             continue
-        path = usb_path_of_alsa_card(n, sysfs_root)
-        serial = usb_serial_of_alsa_card(n, sysfs_root)
+        out.append((n, usb_path_of_alsa_card(n, sysfs_root),
+                    usb_serial_of_alsa_card(n, sysfs_root)))
+    return out
+
+
+def find_alsa_card(*, usb_serial: str | None = None, usb_path: str | None = None,
+                   sysfs_root: str | os.PathLike = "/sys") -> int:
+    """The ALSA card number of the USB sound card with this serial number or USB path."""
+    if (usb_serial is None) == (usb_path is None):
+        raise ValueError("give exactly one of usb_serial or usb_path")
+    seen = []
+    hits = []
+    for n, path, serial in alsa_cards(sysfs_root):
         seen.append(f"card{n} (USB {path or '-'}, serial {serial or '-'})")
         if usb_serial is not None and serial is not None and serial == usb_serial:
             hits.append(n)

@@ -9,9 +9,8 @@ an explicit USB serial number of the card when the user knows it.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
-from ..audio import AudioDeviceNotFound, find_alsa_card, usb_hub_of, usb_path_of_alsa_card
+from ..audio import AudioDeviceNotFound, alsa_cards, find_alsa_card, usb_hub_of
 from ..transport import PortInfo
 
 
@@ -38,14 +37,8 @@ def sound_card_for(port: PortInfo, *, card_serial: str | None = None,
     if hub is None:
         raise PairingError(f"{port.device} (USB {port.location}) is not behind a hub, so "
                            "nothing ties a sound card to it: pair by card serial number")
-    cls = Path(sysfs_root) / "class" / "sound"
     hits, seen = [], []
-    for card in sorted(cls.glob("card*")) if cls.is_dir() else []:
-        try:
-            n = int(card.name[4:])
-        except ValueError:
-            continue
-        path = usb_path_of_alsa_card(n, sysfs_root)
+    for n, path, _ in alsa_cards(sysfs_root):
         seen.append(f"card{n} (USB {path or '-'})")
         if path is not None and usb_hub_of(path) == hub:
             hits.append(n)
