@@ -82,11 +82,6 @@ class ClockSync:
                  refit_every: int = 64, min_span_s: float = 4.0) -> None:
         self._clock = FrameClock(1e6, window_s=window_s, bin_s=bin_s, max_skew=max_skew,
                                  min_span_s=min_span_s, refit_every=refit_every)
-        self.window_s = window_s
-        self.bin_s = bin_s
-        self.max_skew = max_skew
-        self.refit_every = refit_every
-        self.min_span_s = min_span_s
         self._unwrap = Unwrapper()
         self.resets = 0
 

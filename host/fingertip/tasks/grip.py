@@ -81,7 +81,10 @@ class SensorFault(RuntimeError):
     pass
 
 
-def _magnitudes(hand: RobotHand, frames: FrameSet, fingers: Sequence[str]) -> dict[str, float]:
+def force_magnitudes(hand: RobotHand, frames: FrameSet, fingers: Sequence[str]
+                     ) -> dict[str, float]:
+    """Each finger's calibrated force magnitude in one frame set; SensorFault when a frame is
+    missing, flagged or gives a non-finite estimate."""
     out = {}
     for f in fingers:
         fr = frames.get(f)
@@ -141,7 +144,7 @@ class Grip:
         self.now = max(fr.host_time for fr in frames.values())
         self._t0 = self.now if self._t0 is None else self._t0
         try:
-            return _magnitudes(self.hand, frames, self.fingers), arrival
+            return force_magnitudes(self.hand, frames, self.fingers), arrival
         except SensorFault as e:
             self._abort(PinchOutcome.SENSOR_FAULT, str(e))
             return None

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .grip import _magnitudes
+from .grip import force_magnitudes
 from .pinch import demonstrate_threshold
 from .sim_world import ObjectSpec, make_world
 
@@ -47,7 +47,7 @@ def demonstrate(spec: ObjectSpec, firmness_n: float, *, seed: int, step_mm: floa
         frames = hand.read(0.5)
         if frames is None:
             raise RuntimeError("the simulated hand sent no frames during the demonstration")
-        return _magnitudes(hand, frames, fingers)
+        return force_magnitudes(hand, frames, fingers)
 
     base = [read() for _ in range(baseline_frames)]
     baseline = {f: float(np.mean([r[f] for r in base])) for f in fingers}
