@@ -268,16 +268,15 @@ class SimArm(RobotArm):
 
     def __init__(self, world: SimWorld) -> None:
         self.world = world
-        self._xy = (0.0, 0.0)
 
     def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
-        self._xy = (x_mm, y_mm)
         self.world.arm_xy_mm = (x_mm, y_mm)
         self.world.arm_z_mm = z_mm
         self.world.log_z()
 
     def position(self) -> tuple[float, float, float]:
-        return (self._xy[0] + self.world.arm_x_mm, self._xy[1], self.world.arm_z_mm)
+        x, y = self.world.arm_xy_mm
+        return (x + self.world.arm_x_mm, y, self.world.arm_z_mm)
 
     def slide_z(self, dz_mm: float, speed_mm_s: float) -> None:
         if speed_mm_s <= 0:
