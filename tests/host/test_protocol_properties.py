@@ -26,6 +26,7 @@ from fingertip.protocol import (
     Stats,
     Stop,
     StreamDecoder,
+    CobsError,
     Tare,
     cobs_decode,
     cobs_encode,
@@ -82,6 +83,47 @@ def test_cobs_round_trip(data):
     assert 0 not in enc
     assert bytes(cobs_decode(enc)) == data
     assert len(enc) <= len(data) + 1 + len(data) // 254
+
+
+def _reference_decode(enc: bytes) -> bytes | None:
+    """COBS decoding written from its definition, slow and plain: None when invalid."""
+    if not enc or 0 in enc:
+        return None
+    out, i = bytearray(), 0
+    while i < len(enc):
+        code = enc[i]
+        if i + code > len(enc):
+            return None
+        out += enc[i + 1:i + code]
+        i += code
+        if code != 0xFF and i < len(enc):
+            out.append(0)
+    return bytes(out)
+
+
+@given(st.binary(max_size=600))
+def test_cobs_decode_is_clean_on_any_bytes(data):
+    """Any input decodes as the definition says or raises CobsError, never anything else."""
+    want = _reference_decode(data)
+    try:
+        got = cobs_decode(data)
+    except CobsError:
+        got = None
+    assert got == want
+
+
+def test_cobs_rejections_named_in_issue():
+    # An empty input and a zero inside the input are clean rejections (they used to be an
+    # IndexError and an accepted frame).
+    for bad in (b"", b"\x03\x11\x00", b"\x00", bytearray(b"\x02\x00")):
+        try:
+            cobs_decode(bad)
+        except CobsError:
+            continue
+        raise AssertionError(f"{bytes(bad)!r} was accepted")
+    dec = StreamDecoder("device")
+    assert dec.feed(b"\x03\x11\x00") == []
+    assert dec.stats.cobs == 1 and dec.stats.frames_ok == 0
 
 
 @given(st.lists(device_messages, min_size=1, max_size=20))
