@@ -1,4 +1,4 @@
-"""The Fingertip API against the pure-Python device on a real pty, through pyserial."""
+"""The Fingertip API against the virtual device on a real pty, through pyserial."""
 from __future__ import annotations
 
 import os
@@ -7,7 +7,7 @@ import time
 import pytest
 
 from fingertip import CommandFailed, CommandTimeout, Fingertip, ProtocolVersionError
-from fingertip.protocol import ErrorCode
+from fingertip.protocol import ErrorCode, Info, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.pty_device import PtyDevice
 from fingertip.transport import TransportError
@@ -118,11 +118,22 @@ def test_missing_port_is_a_clear_error(tmp_path):
 
 
 def test_other_major_version_is_refused(tmp_path):
+    def as_v2(data: bytes) -> bytes:
+        out = b""
+        for m in StreamDecoder().feed(data):
+            if isinstance(m, Info):
+                m.protocol_major = 2
+            out += encode(m)
+        return out
+
     class V2(VirtualFirmware):
-        def _info(self, reason):
-            info = super()._info(reason)
-            info.protocol_major = 2
-            return info
+        """Its INFO frames say protocol v2.0."""
+
+        def boot(self, start_us=0):
+            return b"\x00" + as_v2(super().boot(start_us))
+
+        def receive(self, data):
+            return as_v2(super().receive(data))
 
     with PtyDevice(V2(4), link=tmp_path / "v2") as dev:
         with pytest.raises(ProtocolVersionError, match="v2.0"):

@@ -1,4 +1,5 @@
-"""The pure-Python device follows docs/protocol.md sections 5 and 6."""
+"""The virtual device (the firmware's C++ on a simulated board) follows docs/protocol.md
+sections 5 and 6."""
 from __future__ import annotations
 
 from fingertip.protocol import (
@@ -136,7 +137,9 @@ def test_timeouts_follow_the_firmware():
     run(dev, Start(1), until_us=100_000)
     dev.dead_mask = 0b0010
     out = [m for m in run(dev, until_us=200_000) if isinstance(m, Sample)]
-    assert out[0].timestamp_us == 100_000 + 18_748  # deadline 1.5 periods later (micros())
+    # The deadline is 1.5 periods later; micros() steps by 4 us: the first reading at or
+    # after it is 18 752 us later.
+    assert out[0].timestamp_us == 100_000 + 18_752
     assert all(m.timeout_mask == 0b0010 for m in out)
     assert [m.timestamp_us % 12_500 for m in out[1:]] == [0] * len(out[1:])
     dev.dead_mask = 0

@@ -70,6 +70,11 @@ class Device {
   uint16_t staleMask() const { return stale_; }
   // When the current wait for the chips gives up (device time).
   uint32_t deadlineUs() const { return deadline_; }
+  // When the next STATS is due while streaming (device time).
+  uint32_t nextStatsUs() const { return next_stats_us_; }
+  // For a board simulated on a PC that calls poll() only when something is due: the time
+  // since the last poll was idle (a real loop would have spun through it), not one loop.
+  void forgetLoopStart() { loop_started_ = false; }
   ftp::Stats stats(uint32_t timestamp_us) const;
   ftp::Encoder& encoder() { return enc_; }
 

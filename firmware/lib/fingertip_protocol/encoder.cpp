@@ -46,13 +46,6 @@ bool allInInt24(const int32_t* v, uint8_t n) {
   return true;
 }
 
-// Payload sizes of section 4.
-const size_t kSampleFixed = 9;
-const size_t kInfoFixed = 18;
-const size_t kStatsPayload = 40;
-const size_t kAckPayload = 3;
-const size_t kNackPayload = 4;
-
 size_t frameLen(size_t payload_len) { return kHeaderSize + payload_len + kCrcSize; }
 
 }  // namespace
@@ -84,7 +77,7 @@ size_t Encoder::encodeSample(const Sample& m, uint8_t* out, size_t cap) {
       !maskFitsChannels(m.saturation_mask, m.channels) || !allInInt24(m.values, m.channels)) {
     return 0;
   }
-  uint8_t* p = begin(MsgType::Sample, frameLen(kSampleFixed + 3u * m.channels), out, cap);
+  uint8_t* p = begin(MsgType::Sample, frameLen(kSamplePayloadFixed + 3u * m.channels), out, cap);
   if (p == nullptr) {
     return 0;
   }
@@ -102,7 +95,7 @@ size_t Encoder::encodeInfo(const Info& m, uint8_t* out, size_t cap) {
   if (m.channels == 0 || m.channels > kMaxChannels || !allInInt24(m.tare_offsets, m.channels)) {
     return 0;
   }
-  uint8_t* p = begin(MsgType::Info, frameLen(kInfoFixed + 3u * m.channels), out, cap);
+  uint8_t* p = begin(MsgType::Info, frameLen(kInfoPayloadFixed + 3u * m.channels), out, cap);
   if (p == nullptr) {
     return 0;
   }
@@ -131,16 +124,9 @@ size_t Encoder::encodeStats(const Stats& m, uint8_t* out, size_t cap) {
   if (p == nullptr) {
     return 0;
   }
-  p = putU32(p, m.timestamp_us);
-  p = putU32(p, m.frames_sent);
-  p = putU32(p, m.read_timeouts);
-  p = putU32(p, m.saturations);
-  p = putU32(p, m.command_errors);
-  p = putU32(p, m.rx_overflows);
-  p = putU32(p, m.rx_crc_errors);
-  p = putU32(p, m.rx_framing_errors);
-  p = putU32(p, m.tx_overruns);
-  p = putU32(p, m.longest_loop_us);
+#define FTP_PUT_STAT(name) p = putU32(p, m.name);
+  FTP_STATS_FIELDS(FTP_PUT_STAT)
+#undef FTP_PUT_STAT
   return finish(out, p);
 }
 

@@ -19,6 +19,7 @@ const uint8_t kMaxEncoded = 129;  // one COBS code byte per started 254-byte blo
 const uint8_t kMaxWire = kMaxEncoded + 1;  // plus the 0x00 delimiter: size of a TX buffer
 const uint8_t kMaxChannels = 16;  // the masks are u16
 const uint8_t kMaxLogText = 100;
+const uint16_t kMaxTareSamples = 256;  // TARE samples (0 clears the offsets)
 
 const int32_t kInt24Max = 8388607;   // 0x7FFFFF
 const int32_t kInt24Min = -8388608;  // -0x800000
@@ -105,19 +106,33 @@ struct Info {
   int32_t tare_offsets[kMaxChannels];  // int24 range
 };
 
-// STATS payload: ten wrapping u32 counters, in wire order.
+// STATS payload: ten wrapping u32 counters, in wire order. The one list of their names in
+// C++: the struct, the encoder and the host library's name table are all made from it, and
+// tests check it against tests/vectors/protocol_v1.json (as the host's STATS_FIELDS is).
+#define FTP_STATS_FIELDS(X) \
+  X(timestamp_us)           \
+  X(frames_sent)            \
+  X(read_timeouts)          \
+  X(saturations)            \
+  X(command_errors)         \
+  X(rx_overflows)           \
+  X(rx_crc_errors)          \
+  X(rx_framing_errors)      \
+  X(tx_overruns)            \
+  X(longest_loop_us)
+
+#define FTP_STATS_DECLARE(name) uint32_t name;
 struct Stats {
-  uint32_t timestamp_us;
-  uint32_t frames_sent;
-  uint32_t read_timeouts;
-  uint32_t saturations;
-  uint32_t command_errors;
-  uint32_t rx_overflows;
-  uint32_t rx_crc_errors;
-  uint32_t rx_framing_errors;
-  uint32_t tx_overruns;
-  uint32_t longest_loop_us;
+  FTP_STATS_FIELDS(FTP_STATS_DECLARE)
 };
+#undef FTP_STATS_DECLARE
+
+// Payload sizes of section 4 (SAMPLE and INFO: before their 3 bytes per channel).
+const uint8_t kSamplePayloadFixed = 9;
+const uint8_t kInfoPayloadFixed = 18;
+const uint8_t kStatsPayload = sizeof(Stats);
+const uint8_t kAckPayload = 3;
+const uint8_t kNackPayload = 4;
 
 // True if no bit at or above `channels` is set (masks of SAMPLE, and the TARE channel mask).
 // The guard matters on AVR: shifting a 16-bit int by 16 is undefined.

@@ -27,8 +27,6 @@ uint8_t popcount16(uint16_t v) {
   return n;
 }
 
-const uint16_t kMaxTareSamples = 256;
-
 // Sets the verdict for a frame with a good CRC that cannot be executed.
 void reject(RxResult& result, RxError error, NackError nack) {
   result.error = error;
