@@ -4,6 +4,7 @@
 #   make test      set-up, native C++ tests, firmware build, every pytest suite
 #   make firmware  the Uno firmware with avr-gcc (ELF + HEX, sizes checked)
 #   make sim       the simavr harness that runs that firmware with simulated HX711s
+#   make hostlib   the firmware's device logic as a host library (the virtual fingertip)
 #   make bench     benchmarks -> docs/benchmarks.md and docs/benchmarks.json
 # Run `make help` for the rest.
 
@@ -30,10 +31,10 @@ APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $
 PYTEST_ARGS ?=
 
 .PHONY: help setup system-packages venv venv-fab test test-native test-python lint firmware sim demo \
-        bench vectors clean distclean
+        bench vectors clean distclean hostlib
 
 help:
-	@sed -n '2,9p' Makefile | sed 's/^# *//'
+	@sed -n '2,10p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
@@ -79,6 +80,7 @@ test: setup
 	$(MAKE) --no-print-directory test-native
 	$(MAKE) --no-print-directory firmware
 	$(MAKE) --no-print-directory sim
+	$(MAKE) --no-print-directory hostlib
 	$(MAKE) --no-print-directory -C firmware/sim selftest
 	$(MAKE) --no-print-directory lint
 	$(MAKE) --no-print-directory pcb-check
@@ -97,6 +99,11 @@ flash:
 	$(MAKE) --no-print-directory firmware venv
 	$(VENV)/bin/fingertip flash --port "$(PORT)" --channels "$(or $(CHANNELS),4)"
 
+# The virtual fingertip runs the firmware's own C++ through this library; there is no Python
+# copy to fall back on, so a failed build stops here.
+hostlib: system-packages
+	$(MAKE) --no-print-directory -C firmware hostlib
+
 # The firmware-in-the-loop harness: the real ELF in simavr with simulated HX711s on a pty.
 sim: system-packages
 	$(MAKE) --no-print-directory -C firmware/sim
@@ -105,18 +112,18 @@ lint: venv
 	$(VENV)/bin/ruff check host tests pcb mechanical
 
 # pytest exits 5 when it collected nothing: that must fail, never pass as "green".
-test-python: venv venv-fab pcb-tools
+test-python: venv venv-fab pcb-tools hostlib
 	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
 	exit $$rc
 
 # The virtual fingertip end to end: physics -> the firmware in simavr -> bridge -> events.
 demo: setup
-	$(MAKE) --no-print-directory firmware sim
+	$(MAKE) --no-print-directory firmware sim hostlib
 	$(VPY) -m fingertip.cli demo --out demo-output
 	$(VPY) -m fingertip.cli experiment pinch --trials 3 --seed 0
 
-bench: setup
+bench: setup hostlib
 	$(VPY) tests/bench/run.py
 
 vectors: venv

@@ -7,10 +7,8 @@ import pytest
 
 from fingertip import CommandFailed
 from fingertip.protocol import (
-    ErrorCode, GetStats, Nack, Ping, SetRate, Stats, StreamDecoder, cobs_encode, encode,
+    ErrorCode, GetStats, Nack, Ping, SetRate, Stats, StreamDecoder, encode, seal,
 )
-from fingertip.protocol.codec import _CRC, _HEADER
-from fingertip.protocol.crc import crc16
 from fingertip.sim.simavr import open_fingertip
 from fingertip.transport import open_serial
 
@@ -118,15 +116,15 @@ def test_every_command_is_answered_and_corruption_is_counted(make_sim):
     exchange(b"", 2)  # boot INFO and LOG
     # A malformed but intact command of every kind gets a NACK with the right code.
     bad = {
-        "unknown": (_HEADER.pack(0x7E, 100), ErrorCode.UNKNOWN_COMMAND),
-        "length": (_HEADER.pack(0x05, 101) + b"\x0f\x00", ErrorCode.BAD_LENGTH),
-        "rate": (_HEADER.pack(0x06, 102) + b"\x14\x01", ErrorCode.BAD_ARGUMENT),
-        "mask": (_HEADER.pack(0x05, 103) + b"\x10\x00\x04\x00", ErrorCode.BAD_ARGUMENT),
+        "unknown": (0x7E, 100, b"", ErrorCode.UNKNOWN_COMMAND),
+        "length": (0x05, 101, b"\x0f\x00", ErrorCode.BAD_LENGTH),
+        "rate": (0x06, 102, b"\x14\x01", ErrorCode.BAD_ARGUMENT),
+        "mask": (0x05, 103, b"\x10\x00\x04\x00", ErrorCode.BAD_ARGUMENT),
     }
-    for name, (body, code) in bad.items():
-        (nack,) = exchange(cobs_encode(body + _CRC.pack(crc16(body))) + b"\x00", 1)
+    for name, (type_, rid, payload, code) in bad.items():
+        (nack,) = exchange(seal(type_, rid, payload), 1)
         assert isinstance(nack, Nack) and nack.error == code, name
-        assert nack.request_id == body[1] | body[2] << 8
+        assert nack.request_id == rid
     # Corrupt bytes: no answer, counted by the device, and the next command still works.
     ping = bytearray(encode(Ping(200)))
     ping[2] ^= 0x10

@@ -1,23 +1,19 @@
-"""The pure-Python device (fingertip.sim.VirtualFirmware) answers byte for byte as the real
-firmware does in simavr: boot message, every command's answer, tare results, samples."""
+"""The virtual device (fingertip.sim.VirtualFirmware: the firmware's C++ built for the host
+and driven from Python on a simulated board) answers byte for byte as the same C++ does on
+the AVR in simavr (16-bit int, avr-gcc, the real Arduino HAL and UART): boot message, every
+command's answer, tare results, samples."""
 from __future__ import annotations
 
 import time
 
 from fingertip.protocol import (
     GetInfo, GetStats, Info, Ping, ResetCounters, Sample, SetGain, SetPower, SetRate,
-    SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, cobs_encode, encode,
+    SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, seal,
 )
-from fingertip.protocol.codec import _CRC, _HEADER
-from fingertip.protocol.crc import crc16
 from fingertip.sim import VirtualFirmware
 from fingertip.transport import open_serial
 
 INPUTS = [120_000, -250_000, 8_388_607, 42]
-
-
-def frame_bytes(body: bytes) -> bytes:
-    return cobs_encode(body + _CRC.pack(crc16(body))) + b"\x00"
 
 
 class Wire:
@@ -57,7 +53,7 @@ def test_twin_matches_the_firmware(make_sim):
     script = [
         (Ping(1), 1), (GetInfo(2), 2), (SetRate(3, 80, 2), 1), (SetGain(4, 64), 1),
         (SetGain(5, 128), 1), (Tare(6, 0b10000, 4), 1),
-        (frame_bytes(_HEADER.pack(0x7E, 7)), 1), (frame_bytes(_HEADER.pack(0x05, 8)), 1),
+        (seal(0x7E, 7), 1), (seal(0x05, 8), 1),
         (SetTareOffsets(9, 0b0101, (11, 0, -22) + (0,) * 13), 1), (GetInfo(10), 2),
         (Tare(11, 0b0011, 0), 1), (SetPower(12, 0), 1), (Start(13), 1), (Tare(14, 1, 4), 1),
         (SetPower(15, 1), 1), (SetPower(16, 1), 1), (ResetCounters(17), 1),

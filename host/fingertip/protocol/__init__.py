@@ -4,7 +4,17 @@ No I/O and no clocks live here, so every layer above (transport, device, simulat
 it and it can be tested directly against tests/vectors/protocol_v1.json.
 """
 from .cobs import CobsError, cobs_decode, cobs_encode
-from .codec import ERROR_KINDS, Direction, FrameError, decode_frame, encode, pack_frame
+from .codec import (
+    ERROR_KINDS,
+    Direction,
+    FrameError,
+    add_crc,
+    decode_frame,
+    encode,
+    pack_frame,
+    raw_frame,
+    seal,
+)
 from .crc import crc16
 from .messages import (
     COMMANDS,
@@ -63,6 +73,7 @@ __all__ = [
     "Nack", "Ping", "ProtocolVersionError", "RejectedCommand", "ResetCounters", "Sample",
     "SetGain", "SetPower", "SetRate", "SetTareOffsets", "Start", "Stats", "Stop",
     "StreamDecoder", "Tare",
-    "cobs_decode", "cobs_encode", "crc16", "decode_frame", "encode", "message_from_dict",
-    "message_name", "message_to_dict", "pack_frame", "require_compatible",
+    "add_crc", "cobs_decode", "cobs_encode", "crc16", "decode_frame", "encode",
+    "message_from_dict", "message_name", "message_to_dict", "pack_frame", "raw_frame",
+    "require_compatible", "seal",
 ]

@@ -148,15 +148,32 @@ def _payload(msg: Message) -> bytes:
     raise TypeError(f"not a protocol message: {msg!r}")
 
 
+def add_crc(body: bytes) -> bytes:
+    """``body`` (header and payload) followed by its CRC: a frame, before COBS."""
+    return body + _CRC.pack(crc16(body))
+
+
+def raw_frame(type_: int, seq: int, payload: bytes = b"") -> bytes:
+    """A frame (header, payload, CRC; before COBS) of any type byte and payload, unchecked:
+    what tests and tools need to write frames that :func:`encode` refuses to make."""
+    return add_crc(_HEADER.pack(type_, seq) + payload)
+
+
+def seal(type_: int, seq: int, payload: bytes = b"") -> bytes:
+    """Wire bytes of :func:`raw_frame` (COBS and the 0x00 delimiter added)."""
+    return cobs_encode(raw_frame(type_, seq, payload)) + b"\x00"
+
+
 def pack_frame(msg: Message) -> bytes:
     """The frame of ``msg`` (header, payload, CRC) before COBS."""
     seq = msg.request_id if msg.TYPE < DEVICE_BIT else msg.seq  # type: ignore[union-attr]
     if not 0 <= seq <= 0xFFFF:
         raise ValueError(f"sequence number / request id {seq} does not fit in 16 bits")
-    body = _HEADER.pack(msg.TYPE, seq) + _payload(msg)
-    if len(body) + CRC_LEN > MAX_FRAME:
-        raise ValueError(f"frame of {len(body) + CRC_LEN} bytes exceeds {MAX_FRAME}")
-    return body + _CRC.pack(crc16(body))
+    payload = _payload(msg)
+    if HEADER_LEN + len(payload) + CRC_LEN > MAX_FRAME:
+        raise ValueError(f"frame of {HEADER_LEN + len(payload) + CRC_LEN} bytes exceeds "
+                         f"{MAX_FRAME}")
+    return raw_frame(msg.TYPE, seq, payload)
 
 
 def encode(msg: Message) -> bytes:

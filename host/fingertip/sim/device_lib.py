@@ -20,7 +20,8 @@ _ROOT = Path(__file__).resolve().parents[3]
 FIRMWARE_DIR = _ROOT / "firmware"
 DEFAULT_PATH = FIRMWARE_DIR / "build" / "host" / LIB_NAME
 _SOURCE_DIRS = ("lib/fingertip_core", "lib/fingertip_protocol", "hostlib")
-BUILD_HINT = "run `make -C firmware hostlib` in the fingertip checkout"
+BUILD_HINT = (f"run `make -C firmware hostlib` in the fingertip checkout (or set {ENV_VAR} to "
+              "the library's path)")
 
 INPUTS_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_uint64,
                              ctypes.POINTER(ctypes.c_double), ctypes.c_uint8)

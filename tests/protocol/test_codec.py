@@ -5,6 +5,7 @@ import pytest
 
 from fingertip.protocol import (
     MAX_ENCODED,
+    Ack,
     ErrorCode,
     ForeignInfo,
     FrameError,
@@ -16,13 +17,14 @@ from fingertip.protocol import (
     SetRate,
     StreamDecoder,
     Tare,
+    add_crc,
     decode_frame,
     encode,
     pack_frame,
+    raw_frame,
     require_compatible,
+    seal,
 )
-from fingertip.protocol.codec import _CRC, _HEADER
-from fingertip.protocol.crc import crc16
 
 
 def info(major=1, minor=0, channels=4):
@@ -53,8 +55,7 @@ def test_largest_frames_fit():
 
 def test_other_major_is_refused_with_a_clear_message():
     # A v2 device: only the first two INFO payload bytes are frozen, the rest is unknown.
-    body = _HEADER.pack(0x82, 5) + bytes([2, 3, 0xAA])
-    frame = body + _CRC.pack(crc16(body))
+    frame = raw_frame(0x82, 5, bytes([2, 3, 0xAA]))
     msg = decode_frame(frame, "device")
     assert msg == ForeignInfo(5, 2, 3)
     with pytest.raises(ProtocolVersionError, match=r"v2\.3.*v1\.x"):
@@ -63,8 +64,7 @@ def test_other_major_is_refused_with_a_clear_message():
 
 
 def test_newer_minor_may_append_fields():
-    body = pack_frame(info())[:-2] + b"\x01\x02\x03"
-    frame = body + _CRC.pack(crc16(body))
+    frame = add_crc(pack_frame(info())[:-2] + b"\x01\x02\x03")
     assert decode_frame(frame) == info()
 
 
@@ -72,18 +72,14 @@ def test_command_errors_carry_what_the_nack_needs():
     frame = pack_frame(SetRate(33, 80, 1))
     bad = bytearray(frame[:-2])
     bad[3] = 20
-    bad += _CRC.pack(crc16(bytes(bad)))
     with pytest.raises(FrameError) as e:
-        decode_frame(bytes(bad), "host")
+        decode_frame(add_crc(bytes(bad)), "host")
     assert (e.value.kind, e.value.nack, e.value.request_id, e.value.command) == \
         ("bad_payload", ErrorCode.BAD_ARGUMENT, 33, 0x06)
 
 
 def test_invalid_utf8_log_is_kept():
-    body = _HEADER.pack(0x86, 1) + b"\x02ok \xff\xfe"
-    dec = StreamDecoder()
-    from fingertip.protocol import cobs_encode
-    (msg,) = dec.feed(cobs_encode(body + _CRC.pack(crc16(body))) + b"\x00")
+    (msg,) = StreamDecoder().feed(seal(0x86, 1, b"\x02ok \xff\xfe"))
     assert msg.text.startswith("ok ") and "\ufffd" in msg.text
 
 
@@ -105,3 +101,16 @@ def test_reset_forgets_partial_frames_but_keeps_counters():
     dec.reset()
     assert dec.feed(wire) == [Sample(1, 2, (3, 4, 5, 6))]
     assert dec.stats.bytes_in == 10 + len(wire)
+
+
+def test_seal_builds_any_frame_and_matches_encode():
+    # The public seam for frames encode() refuses to make; for a valid message it agrees.
+    assert seal(0x84, 7, b"\x05\x00\x01") == encode(Ack(7, 5, 1))
+    assert raw_frame(0x84, 7, b"\x05\x00\x01") == pack_frame(Ack(7, 5, 1))
+    assert add_crc(pack_frame(Ack(7, 5, 1))[:-2]) == pack_frame(Ack(7, 5, 1))
+    with pytest.raises(FrameError) as e:
+        decode_frame(raw_frame(0x7E, 3), "host")  # an unknown command, intact: NACKed
+    assert (e.value.kind, e.value.nack, e.value.request_id) == \
+        ("unknown_type", ErrorCode.UNKNOWN_COMMAND, 3)
+    dec = StreamDecoder("device")
+    assert dec.feed(seal(0x84, 1, b"\x05")) == [] and dec.stats.bad_payload == 1
