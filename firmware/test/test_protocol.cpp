@@ -298,6 +298,71 @@ TEST_CASE("vector file: version and limits agree with the constants") {
   CHECK(ftp::kMaxEncoded == ftp::cobsMaxEncoded(ftp::kMaxFrame));
 }
 
+TEST_CASE("vector file: the shared constants agree with the headers") {
+  // tests/vectors/protocol_v1.json "constants" is the one list both sides are checked against
+  // (tests/protocol/test_constants.py does the Python side and the host library).
+  const json& c = vectors().at("constants");
+  CHECK(c.at("protocol_major").get<int>() == ftp::kProtocolMajor);
+  CHECK(c.at("protocol_minor").get<int>() == ftp::kProtocolMinor);
+  CHECK(c.at("header_size").get<int>() == ftp::kHeaderSize);
+  CHECK(c.at("crc_size").get<int>() == ftp::kCrcSize);
+  CHECK(c.at("min_frame").get<int>() == ftp::kMinFrame);
+  CHECK(c.at("max_frame").get<int>() == ftp::kMaxFrame);
+  CHECK(c.at("max_encoded").get<int>() == ftp::kMaxEncoded);
+  CHECK(c.at("max_channels").get<int>() == ftp::kMaxChannels);
+  CHECK(c.at("max_log_text").get<int>() == ftp::kMaxLogText);
+  CHECK(c.at("max_tare_samples").get<int>() == ftp::kMaxTareSamples);
+  CHECK(c.at("int24_min").get<int32_t>() == ftp::kInt24Min);
+  CHECK(c.at("int24_max").get<int32_t>() == ftp::kInt24Max);
+  CHECK(c.at("sample_payload_fixed").get<int>() == ftp::kSamplePayloadFixed);
+  CHECK(c.at("info_payload_fixed").get<int>() == ftp::kInfoPayloadFixed);
+  CHECK(c.at("stats_payload").get<int>() == ftp::kStatsPayload);
+  CHECK(c.at("ack_payload").get<int>() == ftp::kAckPayload);
+  CHECK(c.at("nack_payload").get<int>() == ftp::kNackPayload);
+  CHECK(c.at("flag_streaming").get<int>() == ftp::kFlagStreaming);
+  CHECK(c.at("flag_powered_down").get<int>() == ftp::kFlagPoweredDown);
+  CHECK(c.at("flag_tare_in_progress").get<int>() == ftp::kFlagTareInProgress);
+  CHECK(c.at("info_reason_request").get<int>() == ftp::kInfoReasonRequest);
+  CHECK(c.at("info_reason_boot").get<int>() == ftp::kInfoReasonBoot);
+
+  const json& t = c.at("message_types");
+  CHECK(t.size() == 17u);
+  CHECK(t.at("ping").get<int>() == static_cast<int>(ftp::MsgType::Ping));
+  CHECK(t.at("get_info").get<int>() == static_cast<int>(ftp::MsgType::GetInfo));
+  CHECK(t.at("start").get<int>() == static_cast<int>(ftp::MsgType::Start));
+  CHECK(t.at("stop").get<int>() == static_cast<int>(ftp::MsgType::Stop));
+  CHECK(t.at("tare").get<int>() == static_cast<int>(ftp::MsgType::Tare));
+  CHECK(t.at("set_rate").get<int>() == static_cast<int>(ftp::MsgType::SetRate));
+  CHECK(t.at("set_gain").get<int>() == static_cast<int>(ftp::MsgType::SetGain));
+  CHECK(t.at("reset_counters").get<int>() == static_cast<int>(ftp::MsgType::ResetCounters));
+  CHECK(t.at("set_power").get<int>() == static_cast<int>(ftp::MsgType::SetPower));
+  CHECK(t.at("get_stats").get<int>() == static_cast<int>(ftp::MsgType::GetStats));
+  CHECK(t.at("set_tare_offsets").get<int>() == static_cast<int>(ftp::MsgType::SetTareOffsets));
+  CHECK(t.at("sample").get<int>() == static_cast<int>(ftp::MsgType::Sample));
+  CHECK(t.at("info").get<int>() == static_cast<int>(ftp::MsgType::Info));
+  CHECK(t.at("stats").get<int>() == static_cast<int>(ftp::MsgType::Stats));
+  CHECK(t.at("ack").get<int>() == static_cast<int>(ftp::MsgType::Ack));
+  CHECK(t.at("nack").get<int>() == static_cast<int>(ftp::MsgType::Nack));
+  CHECK(t.at("log").get<int>() == static_cast<int>(ftp::MsgType::Log));
+
+  const json& e = c.at("nack_errors");
+  CHECK(e.size() == 6u);
+  CHECK(e.at("unknown_command").get<int>() == static_cast<int>(ftp::NackError::UnknownCommand));
+  CHECK(e.at("bad_length").get<int>() == static_cast<int>(ftp::NackError::BadLength));
+  CHECK(e.at("bad_argument").get<int>() == static_cast<int>(ftp::NackError::BadArgument));
+  CHECK(e.at("busy").get<int>() == static_cast<int>(ftp::NackError::Busy));
+  CHECK(e.at("chip_timeout").get<int>() == static_cast<int>(ftp::NackError::ChipTimeout));
+  CHECK(e.at("powered_down").get<int>() == static_cast<int>(ftp::NackError::PoweredDown));
+
+  // STATS counter names in wire order: the X-list the struct and the encoder are made from.
+  std::vector<std::string> names;
+#define FTP_TEST_NAME(name) names.push_back(#name);
+  FTP_STATS_FIELDS(FTP_TEST_NAME)
+#undef FTP_TEST_NAME
+  CHECK(names == c.at("stats_fields").get<std::vector<std::string>>());
+  CHECK(sizeof(ftp::Stats) == 4u * names.size());
+}
+
 TEST_CASE("vectors: crc") {
   int n = 0;
   for (const json& c : section("crc")) {

@@ -29,6 +29,31 @@ STATS_FIELDS = [
     "timestamp_us", "frames_sent", "read_timeouts", "saturations", "command_errors",
     "rx_overflows", "rx_crc_errors", "rx_framing_errors", "tx_overruns", "longest_loop_us",
 ]
+NACK_ERRORS = {"unknown_command": 1, "bad_length": 2, "bad_argument": 3, "busy": 4,
+               "chip_timeout": 5, "powered_down": 6}
+
+
+def constants() -> dict:
+    """The constants C++ and Python share, listed once: firmware/test/test_protocol.cpp checks
+    the C++ headers against them, tests/protocol/test_constants.py the Python package and the
+    device library (docs/protocol.md has the meaning of each)."""
+    return {
+        "protocol_major": 1, "protocol_minor": 0,
+        "header_size": 3, "crc_size": 2, "min_frame": 5, "max_frame": 128, "max_encoded": 129,
+        "max_channels": 16, "max_log_text": 100, "max_tare_samples": 256,
+        "int24_min": -(1 << 23), "int24_max": (1 << 23) - 1,
+        # Payload sizes of section 4; SAMPLE and INFO add 3 bytes per channel.
+        "sample_payload_fixed": struct.calcsize("<IBHH"),
+        "info_payload_fixed": struct.calcsize("<BB3BIBBBBBBBH"),
+        "stats_payload": struct.calcsize("<10I"), "ack_payload": struct.calcsize("<HB"),
+        "nack_payload": struct.calcsize("<HBB"),
+        "flag_streaming": 0x01, "flag_powered_down": 0x02, "flag_tare_in_progress": 0x04,
+        "info_reason_request": 0, "info_reason_boot": 1,
+        "valid_rates": [10, 80], "valid_gains": [128, 64, 32],
+        "message_types": {**COMMAND_TYPES, **DEVICE_TYPES},
+        "nack_errors": NACK_ERRORS,
+        "stats_fields": STATS_FIELDS,
+    }
 
 
 def crc16(data: bytes) -> int:
@@ -342,6 +367,7 @@ def build() -> dict:
         "protocol": {"major": 1, "minor": 0},
         "limits": {"max_frame": 128, "max_encoded": 129, "max_channels": 16,
                    "max_log_text": 100},
+        "constants": constants(),
         "crc": [{"ascii": "123456789", "crc": 0x29B1},
                 {"ascii": "", "crc": 0xFFFF},
                 {"hex": "010100", "crc": crc16(bytes.fromhex("010100"))}],

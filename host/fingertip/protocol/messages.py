@@ -22,6 +22,10 @@ MIN_FRAME = HEADER_LEN + CRC_LEN
 INT24_MIN = -(1 << 23)
 INT24_MAX = (1 << 23) - 1
 DEVICE_BIT = 0x80
+# INFO flags bits.
+FLAG_STREAMING = 0x01
+FLAG_POWERED_DOWN = 0x02
+FLAG_TARE_IN_PROGRESS = 0x04
 
 
 class MsgType(IntEnum):
@@ -116,15 +120,15 @@ class Info:
 
     @property
     def streaming(self) -> bool:
-        return bool(self.flags & 1)
+        return bool(self.flags & FLAG_STREAMING)
 
     @property
     def powered_down(self) -> bool:
-        return bool(self.flags & 2)
+        return bool(self.flags & FLAG_POWERED_DOWN)
 
     @property
     def taring(self) -> bool:
-        return bool(self.flags & 4)
+        return bool(self.flags & FLAG_TARE_IN_PROGRESS)
 
     @property
     def is_boot(self) -> bool:

@@ -1,7 +1,8 @@
 """Simulated fingertip hardware."""
+from . import device_lib
 from .virtual_firmware import VirtualFirmware
 
-__all__ = ["FIRMWARE_VERSION", "VirtualFirmware"]
+__all__ = ["FIRMWARE_VERSION", "VirtualFirmware", "device_lib"]
 
 
 def __getattr__(name: str) -> object:
