@@ -14,6 +14,8 @@ from . import __version__
 from .argtypes import dispatch
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
+from .sim.faults import FAULTS
+from .check import cli as check_cli
 from .models import calibration_cli, classifier_cli
 from .record import cli as record_cli
 from .tasks import cli as tasks_cli
@@ -236,9 +238,22 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     from .sim.pty_device import PtyDevice
     from .sim.physics import Idle, VirtualStrainSensor
 
-    scene = Idle(duration=1e9)
-    source = VirtualStrainSensor(args.seed).as_source(scene)
-    fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    if args.fault:
+        from .sim.bringup import VirtualUnit
+        from .sim.faults import parse_faults
+
+        if args.channels != 4:
+            log.error("--fault needs the 4-channel fingertip")
+            return 2
+        try:
+            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
+        except ValueError as e:
+            log.error("%s", e)
+            return 2
+    else:
+        scene = Idle(duration=1e9)
+        source = VirtualStrainSensor(args.seed).as_source(scene)
+        fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     with PtyDevice(fw, link=args.link) as dev:
@@ -248,6 +263,14 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
                 pass
         except KeyboardInterrupt:
             pass
+    return 0
+
+
+def _cmd_sim_faults(args: argparse.Namespace) -> int:
+    """List the build faults `fingertip sim device --fault` and `fingertip check --virtual
+    --fault` take."""
+    for name, what in FAULTS.items():
+        print(f"{name:<16} {what}")
     return 0
 
 
@@ -363,12 +386,18 @@ def build_parser() -> argparse.ArgumentParser:
     sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
     sd.add_argument("--link", help="also make this path a symlink to the pty")
     sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
+                    help="a build fault (repeatable): " + ", ".join(FAULTS))
     sd.set_defaults(func=_cmd_sim_device)
+    sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
+                          description=_cmd_sim_faults.__doc__)
+    sf.set_defaults(func=_cmd_sim_faults)
     from .sim.cli import add_parsers as add_sim_parsers
 
     add_sim_parsers(smsub)
     record_cli.add_parsers(sub)
     calibration_cli.add_parsers(sub)
+    check_cli.add_parsers(sub)
     classifier_cli.add_parsers(sub)
     tasks_cli.add_parsers(sub)
     return p
