@@ -147,16 +147,16 @@ def estimate_offset(t_ft: np.ndarray, counts: np.ndarray, t_ref: np.ndarray,
         lags, curve = lags[order], curve[order]
         k = int(np.argmax(curve))
     best = float(curve[k])
+    if k in (0, len(lags) - 1):
+        raise AlignmentError(
+            f"the clocks cannot be aligned: the best match is at the edge of the search "
+            f"(+-{max_lag_s:g} s); give a larger --max-offset")
     if best < min_r2:
         raise AlignmentError(
             f"the clocks cannot be aligned: at the best offset ({lags[k] * 1e3:+.0f} ms) the "
             f"counts explain only {100 * best:.0f} % of the reference force (need "
             f"{100 * min_r2:.0f} %): is the reference the sensor under this fingertip, with "
             "forces in its frame?")
-    if k in (0, len(lags) - 1):
-        raise AlignmentError(
-            f"the clocks cannot be aligned: the best match is at the edge of the search "
-            f"(+-{max_lag_s:g} s); give a larger --max-offset")
     peaks = [i for i in range(1, len(curve) - 1)
              if curve[i] >= curve[i - 1] and curve[i] >= curve[i + 1]
              and abs(lags[i] - lags[k]) > 0.05 and curve[i] > best - AMBIGUOUS_R2]
