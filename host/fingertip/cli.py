@@ -168,7 +168,19 @@ def _cmd_stream(args: argparse.Namespace) -> int:
             log.error("%s", e)
             return 2
     with _open(args) as ft:
-        if plot is not None and len(plot.lines) != ft.channels:
+        fm = None
+        if args.force_model:
+            from .models.force_load import ModelMismatch, force_model_for
+
+            try:
+                fm = force_model_for(ft, args.force_model)
+            except (ModelMismatch, FileNotFoundError, ValueError) as e:
+                log.error("--force-model refused: %s", e)
+                return 2
+        if fm is not None and plot is not None:
+            plot.close()
+            plot = LivePlot(2, png=args.plot_png, labels=["Fx", "Fy"], ylabel="force (N)")
+        elif plot is not None and len(plot.lines) != ft.channels:
             plot.close()
             plot = LivePlot(ft.channels, png=args.plot_png)
         if args.rate or args.decimation:
@@ -191,16 +203,23 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                     continue
                 n += 1
                 first = first or f
+                est = fm.estimate_frame(f) if fm is not None else None
                 if plot is not None:
-                    plot.add((f.device_time_us - first.device_time_us) / 1e6, f.counts)
+                    plot.add((f.device_time_us - first.device_time_us) / 1e6,
+                             f.counts if est is None else (est.fx, est.fy))
+                force = "" if est is None else _force_text(est)
                 if args.json:
-                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
-                                      "host_time": f.host_time, "counts": f.counts,
-                                      "timeout_mask": f.timeout_mask,
-                                      "saturation_mask": f.saturation_mask}), flush=True)
+                    row = {"seq": f.seq, "device_time_us": f.device_time_us,
+                           "host_time": f.host_time, "counts": f.counts,
+                           "timeout_mask": f.timeout_mask,
+                           "saturation_mask": f.saturation_mask}
+                    if est is not None:
+                        row["force_n"] = [est.fx, est.fy] if est.ok else None
+                        row["force_status"] = int(est.status)
+                    print(json.dumps(row), flush=True)
                 elif not live:
                     print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
-                          + " ".join(f"{c:9d}" for c in f.counts)
+                          + " ".join(f"{c:9d}" for c in f.counts) + force
                           + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
                              f"sat={f.saturation_mask:#x}"), flush=True)
                 elif f.arrival_time - last_print > 0.1:
@@ -209,7 +228,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                     rate = (n - 1) / span if span > 0 else 0.0
                     st = ft.stats
                     print(f"\r{n:7d} frames {rate:6.1f}/s  " + " ".join(
-                        f"{c:9d}" for c in f.counts)
+                        f"{c:9d}" for c in f.counts) + force
                         + f"  lost {st.frames_lost} crc {st.crc_errors}   ", end="", flush=True)
         except KeyboardInterrupt:
             pass
@@ -227,6 +246,14 @@ def _cmd_stream(args: argparse.Namespace) -> int:
               f"{st.cobs_errors}, reconnects {st.reconnects}, device resets "
               f"{st.device_resets}", file=sys.stderr)
     return 0
+
+
+def _force_text(est) -> str:
+    """``  Fx +1.234 Fy -0.567 N`` (or why there is no estimate)."""
+    if not est.ok:
+        return f"  force: none ({est.status!r})"
+    flag = " (extrapolated)" if est.status else ""
+    return f"  Fx {est.fx:+7.3f} Fy {est.fy:+7.3f} N{flag}"
 
 
 def _cmd_sim_device(args: argparse.Namespace) -> int:
@@ -368,6 +395,9 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--plot", action="store_true", help="a live plot in a window")
     st.add_argument("--plot-png", metavar="FILE",
                     help="a live plot written to FILE every second (no screen needed)")
+    st.add_argument("--force-model", metavar="FORCE.onnx",
+                    help="forces in newtons from this calibration (`calibrate fit|record`): "
+                         "on the live line, in the JSON and in the plot")
     st.set_defaults(func=_cmd_stream)
 
     dm = sub.add_parser("demo", help="run the whole chain on a virtual fingertip",
