@@ -14,6 +14,8 @@ from . import __version__
 from .argtypes import dispatch
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
+from .sim.faults import FAULTS
+from .check import cli as check_cli
 from .models import calibration_cli, classifier_cli
 from .record import cli as record_cli
 from .tasks import cli as tasks_cli
@@ -166,7 +168,19 @@ def _cmd_stream(args: argparse.Namespace) -> int:
             log.error("%s", e)
             return 2
     with _open(args) as ft:
-        if plot is not None and len(plot.lines) != ft.channels:
+        fm = None
+        if args.force_model:
+            from .models.force_load import ModelMismatch, force_model_for
+
+            try:
+                fm = force_model_for(ft, args.force_model)
+            except (ModelMismatch, FileNotFoundError, ValueError) as e:
+                log.error("--force-model refused: %s", e)
+                return 2
+        if fm is not None and plot is not None:
+            plot.close()
+            plot = LivePlot(2, png=args.plot_png, labels=["Fx", "Fy"], ylabel="force (N)")
+        elif plot is not None and len(plot.lines) != ft.channels:
             plot.close()
             plot = LivePlot(ft.channels, png=args.plot_png)
         if args.rate or args.decimation:
@@ -189,16 +203,23 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                     continue
                 n += 1
                 first = first or f
+                est = fm.estimate_frame(f) if fm is not None else None
                 if plot is not None:
-                    plot.add((f.device_time_us - first.device_time_us) / 1e6, f.counts)
+                    plot.add((f.device_time_us - first.device_time_us) / 1e6,
+                             f.counts if est is None else (est.fx, est.fy))
+                force = "" if est is None else _force_text(est)
                 if args.json:
-                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
-                                      "host_time": f.host_time, "counts": f.counts,
-                                      "timeout_mask": f.timeout_mask,
-                                      "saturation_mask": f.saturation_mask}), flush=True)
+                    row = {"seq": f.seq, "device_time_us": f.device_time_us,
+                           "host_time": f.host_time, "counts": f.counts,
+                           "timeout_mask": f.timeout_mask,
+                           "saturation_mask": f.saturation_mask}
+                    if est is not None:
+                        row["force_n"] = [est.fx, est.fy] if est.ok else None
+                        row["force_status"] = int(est.status)
+                    print(json.dumps(row), flush=True)
                 elif not live:
                     print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
-                          + " ".join(f"{c:9d}" for c in f.counts)
+                          + " ".join(f"{c:9d}" for c in f.counts) + force
                           + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
                              f"sat={f.saturation_mask:#x}"), flush=True)
                 elif f.arrival_time - last_print > 0.1:
@@ -207,7 +228,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                     rate = (n - 1) / span if span > 0 else 0.0
                     st = ft.stats
                     print(f"\r{n:7d} frames {rate:6.1f}/s  " + " ".join(
-                        f"{c:9d}" for c in f.counts)
+                        f"{c:9d}" for c in f.counts) + force
                         + f"  lost {st.frames_lost} crc {st.crc_errors}   ", end="", flush=True)
         except KeyboardInterrupt:
             pass
@@ -227,6 +248,14 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     return 0
 
 
+def _force_text(est) -> str:
+    """``  Fx +1.234 Fy -0.567 N`` (or why there is no estimate)."""
+    if not est.ok:
+        return f"  force: none ({est.status!r})"
+    flag = " (extrapolated)" if est.status else ""
+    return f"  Fx {est.fx:+7.3f} Fy {est.fy:+7.3f} N{flag}"
+
+
 def _cmd_sim_device(args: argparse.Namespace) -> int:
     """Serve a virtual fingertip (pure Python, the firmware's twin) on a pseudo-terminal."""
     import signal
@@ -236,9 +265,22 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     from .sim.pty_device import PtyDevice
     from .sim.physics import Idle, VirtualStrainSensor
 
-    scene = Idle(duration=1e9)
-    source = VirtualStrainSensor(args.seed).as_source(scene)
-    fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    if args.fault:
+        from .sim.bringup import VirtualUnit
+        from .sim.faults import parse_faults
+
+        if args.channels != 4:
+            log.error("--fault needs the 4-channel fingertip")
+            return 2
+        try:
+            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
+        except ValueError as e:
+            log.error("%s", e)
+            return 2
+    else:
+        scene = Idle(duration=1e9)
+        source = VirtualStrainSensor(args.seed).as_source(scene)
+        fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     with PtyDevice(fw, link=args.link) as dev:
@@ -248,6 +290,14 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
                 pass
         except KeyboardInterrupt:
             pass
+    return 0
+
+
+def _cmd_sim_faults(args: argparse.Namespace) -> int:
+    """List the build faults `fingertip sim device --fault` and `fingertip check --virtual
+    --fault` take."""
+    for name, what in FAULTS.items():
+        print(f"{name:<16} {what}")
     return 0
 
 
@@ -345,6 +395,9 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--plot", action="store_true", help="a live plot in a window")
     st.add_argument("--plot-png", metavar="FILE",
                     help="a live plot written to FILE every second (no screen needed)")
+    st.add_argument("--force-model", metavar="FORCE.onnx",
+                    help="forces in newtons from this calibration (`calibrate fit|record`): "
+                         "on the live line, in the JSON and in the plot")
     st.set_defaults(func=_cmd_stream)
 
     dm = sub.add_parser("demo", help="run the whole chain on a virtual fingertip",
@@ -363,12 +416,18 @@ def build_parser() -> argparse.ArgumentParser:
     sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
     sd.add_argument("--link", help="also make this path a symlink to the pty")
     sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
+                    help="a build fault (repeatable): " + ", ".join(FAULTS))
     sd.set_defaults(func=_cmd_sim_device)
+    sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
+                          description=_cmd_sim_faults.__doc__)
+    sf.set_defaults(func=_cmd_sim_faults)
     from .sim.cli import add_parsers as add_sim_parsers
 
     add_sim_parsers(smsub)
     record_cli.add_parsers(sub)
     calibration_cli.add_parsers(sub)
+    check_cli.add_parsers(sub)
     classifier_cli.add_parsers(sub)
     tasks_cli.add_parsers(sub)
     return p

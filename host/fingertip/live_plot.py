@@ -18,7 +18,8 @@ class LivePlot:
     """Rolling traces of every channel over the last ``window_s`` seconds."""
 
     def __init__(self, channels: int, *, window_s: float = 10.0, png: str | Path | None = None,
-                 refresh_s: float | None = None) -> None:
+                 refresh_s: float | None = None, labels: list[str] | None = None,
+                 ylabel: str = "counts") -> None:
         import matplotlib
 
         self.png = Path(png) if png else None
@@ -36,17 +37,18 @@ class LivePlot:
         self.t: deque[float] = deque()
         self.v: deque[tuple[int, ...]] = deque()
         self.fig, self.ax = plt.subplots(figsize=(9, 4))
-        self.lines = [self.ax.plot([], [], lw=1, label=f"channel {c}")[0]
-                      for c in range(channels)]
+        names = labels or [f"channel {c}" for c in range(channels)]
+        self.min_pad = 1.0 if ylabel == "counts" else 0.05
+        self.lines = [self.ax.plot([], [], lw=1, label=names[c])[0] for c in range(channels)]
         self.ax.set_xlabel("time (s)")
-        self.ax.set_ylabel("counts")
+        self.ax.set_ylabel(ylabel)
         self.ax.legend(loc="upper left", fontsize=8)
         self._last = 0.0
         if self.png is None:
             plt.ion()
             plt.show(block=False)
 
-    def add(self, t: float, counts: tuple[int, ...]) -> None:
+    def add(self, t: float, counts: tuple[float, ...]) -> None:
         self.t.append(t)
         self.v.append(counts)
         while self.t and self.t[0] < t - self.window_s:
@@ -65,8 +67,10 @@ class LivePlot:
         for c, line in enumerate(self.lines):
             line.set_data(t, v[:, c])
         self.ax.set_xlim(max(t[0], t[-1] - self.window_s), t[-1] + 1e-3)
-        lo, hi = float(v.min()), float(v.max())
-        pad = max(1.0, 0.05 * (hi - lo))
+        if not np.isfinite(v).any():
+            return
+        lo, hi = float(np.nanmin(v)), float(np.nanmax(v))
+        pad = max(self.min_pad, 0.05 * (hi - lo))
         self.ax.set_ylim(lo - pad, hi + pad)
         if self.png is not None:
             tmp = self.png.with_suffix(".tmp.png")

@@ -1118,11 +1118,12 @@ def fit_calibration(data: CalibrationData, out_dir: str | os.PathLike, *,
                     models: str | Sequence[str] = DEFAULT_MODELS, bound_pct: float = 10.0,
                     split: str = "auto", epochs: int = 1500, seed: int = 0,
                     max_condition: float = MAX_CONDITION, plot: bool = True,
-                    single_calls: int = 2000, progress: Progress | None = None
-                    ) -> CalibrationReport:
+                    single_calls: int = 2000, progress: Progress | None = None,
+                    extra_metadata: dict[str, Any] | None = None) -> CalibrationReport:
     """Check ``data``, hold out whole cells/trials, fit ``models``, export each to
     ``out_dir/force_<name>.onnx``, measure them, choose one (copied to ``force.onnx``) and
-    write ``calibration.json``, ``calibration.md`` and ``speed_vs_error.png``."""
+    write ``calibration.json``, ``calibration.md`` and ``speed_vs_error.png``.
+    ``extra_metadata``: more ONNX metadata (e.g. the device's serial number)."""
     say = progress or (lambda _msg: None)
     if not (bound_pct >= 0 and math.isfinite(bound_pct)):
         raise ValueError(f"the error bound must be a percentage >= 0, not {bound_pct}")
@@ -1144,7 +1145,7 @@ def fit_calibration(data: CalibrationData, out_dir: str | os.PathLike, *,
         pred = model.predict(test.counts)
         err = rmse(pred, test.force)
         held = {"heldout_rmse_n": round(err, 5), "heldout_mse_n2": round(err * err, 6),
-                "rows_test": len(test)}
+                "rows_test": len(test), **(extra_metadata or {})}
         path = model.to_onnx(out / f"force_{name}.onnx",
                              model_metadata(model, data, train, heldout=held, split=how))
         rows.append((name, model, pred, err, path, fit_s))

@@ -158,6 +158,9 @@ def add_parsers(sub) -> None:
                         description=_cmd_check.__doc__)
     common(k)
     k.set_defaults(func=_cmd_check)
+    from .calib_record_cli import add_parser as add_record_parser
+
+    add_record_parser(csub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

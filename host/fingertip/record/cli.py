@@ -56,7 +56,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
     out = Path(args.output)
     try:
         check_name(args.name)
-        force_model = load_force_model(args.force_model) if args.force_model else None
+        onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
+                                           or Path(args.force_model).is_file())
+        force_model = load_force_model(args.force_model) \
+            if args.force_model and not onnx else None
     except ValueError as e:
         log.error("%s", e)
         return 2
@@ -86,6 +89,15 @@ def _cmd_record(args: argparse.Namespace) -> int:
     except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
         log.error("%s", e)
         return 2
+    if onnx:  # checked against this fingertip (channels, units, serial) before recording
+        from ..models.force_load import ModelMismatch, force_model_for
+
+        try:
+            force_model = force_model_for(ft, args.force_model)
+        except (ModelMismatch, FileNotFoundError, ValueError) as e:
+            ft.close()
+            log.error("--force-model refused: %s", e)
+            return 2
     rec = None
     try:
         offsets = None
@@ -288,9 +300,11 @@ def add_parsers(sub) -> None:
                    help="the fingertip's name in topic names /fingertip/NAME/... "
                         "(default: fingertip)")
     r.add_argument("--tare", type=number(int, 1), metavar="N", help="tare with N samples first")
-    r.add_argument("--force-model", metavar="MODULE:FUNCTION",
-                   help="a Python callable counts -> (fx, fy[, fz]) in newtons; its forces "
-                        "are recorded as geometry_msgs/WrenchStamped")
+    r.add_argument("--force-model", metavar="FORCE.onnx|MODULE:FUNCTION",
+                   help="the ONNX file of `calibrate fit|record` (refused when its channels, "
+                        "units or device serial do not match), or a Python callable counts "
+                        "-> (fx, fy[, fz]) in newtons; the forces are recorded as "
+                        "geometry_msgs/WrenchStamped")
     r.add_argument("--flush-interval", type=number(float, 0, lo_open=True), default=0.5,
                    metavar="S",
                    help="write the chunk in progress every S seconds (default 0.5): at most "

@@ -99,6 +99,11 @@ class PtyDevice:
 
     # --- internals ------------------------------------------------------------------------
 
+    def device_time_s(self, host_time: float) -> float:
+        """Device seconds at ``host_time`` (a ``time.monotonic()`` value)."""
+        return (self.clock_offset_us * 1e-6
+                + (host_time - self._t0) * self.speed * (1 + self.clock_skew))
+
     def _device_us(self) -> int:
         elapsed = (time.monotonic() - self._t0) * self.speed * (1 + self.clock_skew)
         return self.clock_offset_us + int(elapsed * 1e6)

@@ -1,0 +1,130 @@
+"""``fingertip check``: the bring-up check (:func:`add_parsers` adds it to ``fingertip``).
+
+Exit codes: 0 every check passed (warnings allowed), 1 a check failed, 2 a user error (no
+device on that port, a bad argument), as one clear line.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import logging
+import sys
+from pathlib import Path
+
+from ..argtypes import number
+
+log = logging.getLogger("fingertip")
+
+
+@contextlib.contextmanager
+def _virtual(args: argparse.Namespace):
+    """A virtual unit behind a real pty; the simulator performs the guided steps."""
+    from ..sim.bringup import SimAudio, SimGuide, VirtualUnit
+    from ..sim.faults import parse_faults
+    from ..sim.pty_device import PtyDevice
+
+    unit = VirtualUnit(args.seed, parse_faults(args.fault or []))
+    with PtyDevice(unit.firmware, speed=args.speed) as dev:
+        yield dev.port, SimGuide(unit), SimAudio(unit)
+
+
+def _real_audio(args: argparse.Namespace, probe):
+    if args.no_audio:
+        return None
+    if args.audio_device is None:
+        from ..device.pairing import PairingError, alsa_device_name, sound_card_for
+        from ..transport import list_ports
+
+        port = next((p for p in list_ports(include_non_usb=True)
+                     if p.device == probe.ft.port), None)
+        try:
+            if port is None:
+                raise PairingError(f"{probe.ft.port} is not a USB port")
+            device = alsa_device_name(sound_card_for(port))
+        except PairingError as e:
+            log.warning("piezo not checked: %s (give --audio-device)", e)
+            return None
+    else:
+        device = args.audio_device
+    from .audio_capture import SoundCardAudio
+
+    return SoundCardAudio(device, probe)
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    """Bring-up check of a new fingertip: the chips, their rate and noise, bridge balance,
+    polarity and channel mapping by guided presses, the piezo by guided taps, and the link.
+    Prints a table of pass / warn / fail with a one-line fix for each failure, writes a JSON
+    report, and exits 1 when something failed (docs/bring-up.md)."""
+    from ..device import Fingertip, FingertipError
+    from ..protocol import ProtocolVersionError
+    from ..transport import DeviceNotFound, TransportError
+    from .guide import NoPromptGuide, PromptGuide
+    from .probe import DeviceProbe
+    from .run import run_check
+
+    if args.fault and not args.virtual:
+        log.error("--fault needs --virtual (faults are simulated)")
+        return 2
+    say = None if args.quiet else (lambda m: print(f"check: {m}", file=sys.stderr, flush=True))
+    try:
+        with contextlib.ExitStack() as stack:
+            if args.virtual:
+                port, guide, audio = stack.enter_context(_virtual(args))
+                if args.no_prompt:
+                    guide = NoPromptGuide()
+                ft = stack.enter_context(Fingertip(port))
+                probe = DeviceProbe(ft)
+            else:
+                ft = Fingertip(args.port) if args.port else Fingertip(serial_number=args.serial)
+                stack.enter_context(ft)
+                probe = DeviceProbe(ft)
+                guide = NoPromptGuide() if args.no_prompt else PromptGuide()
+                audio = _real_audio(args, probe)
+            report = run_check(probe, guide, audio, progress=say)
+    except ValueError as e:  # a bad --fault
+        log.error("%s", e)
+        return 2
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return 2
+    if args.virtual:
+        report.device["virtual"] = {"seed": args.seed, "faults": args.fault or []}
+    try:
+        report.write_json(args.report)
+    except OSError as e:
+        log.error("cannot write %s: %s", args.report, e.strerror or e)
+        return 2
+    if args.json:
+        print(json.dumps(report.as_dict(), default=str))
+    else:
+        print(report.table())
+        print(f"report: {Path(args.report)}")
+    return report.exit_code()
+
+
+def add_parsers(sub) -> None:
+    c = sub.add_parser("check", help="bring-up check of a new fingertip (pass/warn/fail)",
+                       description=_cmd_check.__doc__)
+    g = c.add_mutually_exclusive_group(required=True)
+    g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
+    g.add_argument("--serial", help="USB serial number of its Arduino")
+    g.add_argument("--virtual", action="store_true",
+                   help="check a virtual fingertip (the simulator presses and taps)")
+    c.add_argument("--no-prompt", action="store_true",
+                   help="skip the guided presses and taps; the report lists what was skipped")
+    c.add_argument("--report", default="check-report.json", metavar="FILE.json",
+                   help="where to write the JSON report (default check-report.json)")
+    c.add_argument("--json", action="store_true", help="print the report as JSON")
+    c.add_argument("--audio-device", metavar="NAME",
+                   help="the piezo's sound card (default: the card paired with the port)")
+    c.add_argument("--no-audio", action="store_true", help="do not check the piezo")
+    c.add_argument("--seed", type=int, default=0, help="--virtual: which unit (default 0)")
+    c.add_argument("--fault", action="append", metavar="NAME[:CH]",
+                   help="--virtual: a build fault to simulate (repeatable); "
+                        "see `fingertip sim faults`")
+    c.add_argument("--speed", type=number(float, 0.1, 50.0), default=1.0,
+                   help="--virtual: device seconds per wall second (default 1, real time)")
+    c.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    c.set_defaults(func=_cmd_check)

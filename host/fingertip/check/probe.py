@@ -1,0 +1,94 @@
+"""Record what the checks need from a :class:`~fingertip.device.Fingertip`: segments of
+untared counts with their device times, the device's identity and counters."""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from ..device import Fingertip
+from ..protocol import message_to_dict
+from .signals import Segment
+
+LINK_COUNTERS = ("rx_overflows", "rx_crc_errors", "rx_framing_errors", "tx_overruns")
+BRIDGE_COUNTERS = ("crc_errors", "cobs_errors", "framing_errors", "bad_payload", "frames_lost",
+                   "overruns")
+
+
+class DeviceProbe:
+    """Wraps an open fingertip for the check; :meth:`restore` puts its settings back."""
+
+    def __init__(self, ft: Fingertip) -> None:
+        self.ft = ft
+        self.info = ft.info
+        self.channels = ft.channels
+        self._offsets = tuple(self.info.tare_offsets[:self.channels])
+        self._rate = (self.info.rate_sps, self.info.decimation)
+        self.gain = self.info.gain
+        self.last_time_s = 0.0
+        self._host0: dict[str, int] = {}
+        self.host_minus_device_s = 0.0
+        """Host clock minus device clock (seconds), from the last frame."""
+
+    def describe(self) -> dict[str, Any]:
+        i = self.info
+        return {"port": self.ft.port, "protocol": f"{i.protocol_major}.{i.protocol_minor}",
+                "firmware": ".".join(map(str, i.firmware_version)),
+                "build_id": f"{i.build_id:08x}", "channels": i.channels, "gain": i.gain}
+
+    def prepare(self) -> None:
+        """Untared counts (bridge balance needs them), 80 SPS, counters zeroed, streaming."""
+        self.ft.set_tare_offsets([0] * self.channels)
+        self.ft.set_rate(80, 1)
+        self.ft.reset_counters()
+        self._host0 = {k: int(getattr(self.ft.stats, k)) for k in BRIDGE_COUNTERS}
+        self.ft.start()
+
+    def set_rate(self, rate_sps: int) -> None:
+        self.ft.set_rate(rate_sps, 1)
+
+    def capture(self, seconds: float, timeout: float = 3.0) -> Segment:
+        """Frames covering ``seconds`` of device time from now."""
+        self.ft.drain()
+        rows, t_first = [], None
+        deadline = time.monotonic() + seconds * 4 + timeout
+        while time.monotonic() < deadline:
+            f = self.ft.read(timeout=0.5)
+            if f is None:
+                if rows and time.monotonic() > deadline - timeout:
+                    break
+                continue
+            t = f.device_time_us * 1e-6
+            t_first = t if t_first is None else t_first
+            rows.append(f)
+            self.last_time_s = t
+            self.host_minus_device_s = f.host_time - t
+            if t - t_first >= seconds:
+                break
+        n, c = len(rows), self.channels
+        counts = np.full((n, c), np.nan)
+        tmask = np.zeros(n, np.int64)
+        smask = np.zeros(n, np.int64)
+        for k, f in enumerate(rows):
+            counts[k] = f.counts[:c]
+            tmask[k], smask[k] = f.timeout_mask, f.saturation_mask
+        for ch in range(c):
+            counts[((tmask >> ch) & 1) == 1, ch] = np.nan
+        times = np.array([f.device_time_us * 1e-6 for f in rows])
+        return Segment(times, counts, tmask, smask)
+
+    def counters(self) -> dict[str, int]:
+        st = message_to_dict(self.ft.device_stats())
+        br = self.ft.stats
+        out = {f"device.{k}": int(st[k]) for k in LINK_COUNTERS if k in st}
+        out.update({f"host.{k}": int(getattr(br, k)) - self._host0.get(k, 0)
+                    for k in BRIDGE_COUNTERS})
+        return out
+
+    def restore(self) -> None:
+        try:
+            self.ft.stop()
+        finally:
+            self.ft.set_rate(*self._rate)
+            self.ft.set_tare_offsets(list(self._offsets))

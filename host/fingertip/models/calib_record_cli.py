@@ -1,0 +1,171 @@
+"""``fingertip calibrate record``: record (or load) a fingertip and a reference, join them
+by time and fit. Exit codes: 0 done; 2 bad input (no reference packets, a reference that
+never moves, a wrong CSV, clocks that cannot be aligned), one clear line, nothing fitted;
+1 a failure part-way (writing the outputs)."""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import logging
+import sys
+
+from ..argtypes import number
+
+log = logging.getLogger("fingertip")
+
+
+def _rdt_address(text: str) -> tuple[str, int]:
+    host, _, port = text.rpartition(":") if ":" in text else (text, "", "")
+    try:
+        return host, int(port) if port else 49152
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give HOST or HOST:PORT") from None
+
+
+@contextlib.contextmanager
+def _virtual_rig(args: argparse.Namespace):
+    """A virtual unit behind a pty, random presses, and an RDT reference simulator on
+    127.0.0.1 fed by the unit's true forces (its own delay, noise and packet loss)."""
+    import numpy as np
+
+    from ..sim.bringup import VirtualUnit
+    from ..sim.pty_device import PtyDevice
+    from ..sim.rdt_server import RdtServer
+    from ..sim.reference_run import random_presses
+
+    unit = VirtualUnit(args.seed)
+    with PtyDevice(unit.firmware) as dev:
+        def force_at(host_t: float) -> np.ndarray:
+            f = unit.scene.forces(np.array([dev.device_time_s(host_t)]))
+            return np.array([f.xy[0, 0], f.xy[0, 1], f.z[0]])
+
+        def begin() -> None:  # presses start after the tare, from the device's now
+            random_presses(unit.scene, unit.now_s + args.duration,
+                           np.random.default_rng(args.seed), start_s=unit.now_s + 1.0)
+
+        with RdtServer(force_at, delay_s=args.sim_delay_ms / 1e3, loss=args.sim_loss / 100,
+                       seed=args.seed) as server:
+            yield dev.port, f"127.0.0.1:{server.port}", begin
+
+
+def _cmd_record(args: argparse.Namespace) -> int:
+    """Record a calibration run with a reference force sensor, join the two by time (the
+    clock offset is estimated from the data, with its uncertainty), drop unsettled samples
+    and fit the force models (docs/calibration.md, docs/bring-up.md). References: an ATI
+    Net F/T or Axia over RDT (--rdt), or a timestamped CSV (--reference-csv, with the
+    fingertip live or from --fingertip-csv). --virtual runs it all on a virtual fingertip
+    with a simulated RDT sensor on 127.0.0.1."""
+    from ..device import Fingertip, FingertipError
+    from ..protocol import ProtocolVersionError
+    from ..reference import ReferenceError, load_reference_csv
+    from ..reference.rdt import RdtClient
+    from ..transport import DeviceNotFound, TransportError
+    from .align import AlignmentError
+    from .calib_record import align_and_join, fit_joined, load_fingertip_csv, record_session
+    from .calibrate import CalibrationError
+
+    say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
+                                                    flush=True))
+    sources: tuple[str, ...]
+    try:
+        with contextlib.ExitStack() as stack:
+            if args.fingertip_csv:
+                if not args.reference_csv:
+                    log.error("--fingertip-csv needs --reference-csv")
+                    return 2
+                rec = load_fingertip_csv(args.fingertip_csv, args.time_column)
+                ref = load_reference_csv(args.reference_csv)
+                serial, sources = args.device_serial or "", (str(args.reference_csv),)
+            else:
+                begin = None
+                if args.virtual:
+                    port, addr, begin = stack.enter_context(_virtual_rig(args))
+                    args.rdt = args.rdt or _rdt_address(addr)
+                    ft = stack.enter_context(Fingertip(port))
+                    serial = f"virtual-{args.seed}"
+                else:
+                    ft = stack.enter_context(Fingertip(args.port) if args.port else
+                                             Fingertip(serial_number=args.serial))
+                    serial = args.device_serial or ft.serial_number or ""
+                if args.rdt:
+                    src = RdtClient(args.rdt[0], args.rdt[1],
+                                    counts_per_force=args.counts_per_force,
+                                    counts_per_torque=args.counts_per_force)
+                    rec, ref = record_session(ft, src, args.duration, before=begin,
+                                              progress=say)
+                    sources = (src.name,)
+                    lost = ref.counters.get("lost", 0)
+                    if say:
+                        say(f"reference: {len(ref)} samples, {lost} lost")
+                else:
+                    log.error("give a reference: --rdt HOST[:PORT] or --reference-csv FILE "
+                              "(with --fingertip-csv)")
+                    return 2
+            if args.reference_csv and not args.fingertip_csv:
+                ref = load_reference_csv(args.reference_csv)
+                sources = (str(args.reference_csv),)
+            joined = align_and_join(rec, ref, max_lag_s=args.max_offset)
+    except (ReferenceError, AlignmentError) as e:
+        log.error("%s", e)
+        return 2
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return 2
+    al = joined.alignment
+    print(f"clock offset: reference = fingertip {al.offset_s * 1e3:+.1f} ms "
+          f"+- {al.uncertainty_s * 1e3:.1f} ms (R2 {al.r2:.4f}); joined "
+          f"{len(joined.times_s)} rows, dropped " +
+          ", ".join(f"{v} {k}" for k, v in joined.dropped.items()))
+    try:
+        report = fit_joined(joined, args.out, gain=rec.gain, unit=serial,
+                            device_serial=serial, sources=sources, models=args.models,
+                            progress=say)
+    except CalibrationError as e:
+        log.error("cannot calibrate from the joined data [%s]: %s", e.code, e)
+        return 2
+    except OSError as e:
+        log.error("writing into %s failed: %s", args.out, e.strerror or e)
+        return 1
+    c = report.chosen_result
+    print(report.table())
+    print(f"\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N); wrote {args.out}: force.onnx, "
+          + ", ".join(v for k, v in report.files.items() if k != "chosen")
+          + ", joined.csv, alignment.json")
+    return 0
+
+
+def add_parser(csub) -> None:
+    from .calibration_cli import _models
+
+    r = csub.add_parser("record", help="record with a reference sensor, align clocks, fit",
+                        description=_cmd_record.__doc__)
+    g = r.add_mutually_exclusive_group()
+    g.add_argument("--port", help="serial port of the fingertip")
+    g.add_argument("--serial", help="USB serial number of its Arduino")
+    g.add_argument("--virtual", action="store_true",
+                   help="a virtual fingertip with a simulated RDT sensor on 127.0.0.1")
+    r.add_argument("--rdt", type=_rdt_address, metavar="HOST[:PORT]",
+                   help="an ATI Net F/T or Axia streaming RDT (UDP, default port 49152)")
+    r.add_argument("--counts-per-force", type=number(float, 1e-9), default=1_000_000,
+                   help="the sensor's counts per newton (its cfgcpf; default 1000000)")
+    r.add_argument("--reference-csv", metavar="FILE",
+                   help="a reference CSV: time (s), fx, fy (N)[, fz]")
+    r.add_argument("--fingertip-csv", metavar="FILE",
+                   help="the fingertip from a `fingertip export` CSV instead of live")
+    r.add_argument("--time-column", default="host_time",
+                   help="--fingertip-csv's time column (host_time or unix_time)")
+    r.add_argument("--device-serial", help="the fingertip's serial, written into the model")
+    r.add_argument("--duration", type=number(float, 5.0, 3600.0), default=90.0,
+                   help="seconds to record (default 90)")
+    r.add_argument("--max-offset", type=number(float, 0.05, 600.0), default=2.0,
+                   metavar="S", help="search the clock offset within +-S seconds (default 2)")
+    r.add_argument("-o", "--out", default="calibration", metavar="OUTDIR")
+    r.add_argument("--models", type=_models, default=["affine", "poly2", "mlp16x16"],
+                   help="models to fit (default affine,poly2,mlp16x16)")
+    r.add_argument("--seed", type=int, default=0, help="--virtual: which unit")
+    r.add_argument("--sim-delay-ms", type=float, default=37.0,
+                   help="--virtual: the simulated sensor's lag (default 37 ms)")
+    r.add_argument("--sim-loss", type=number(float, 0, 50), default=1.0, metavar="PCT",
+                   help="--virtual: packets lost (default 1 %%)")
+    r.add_argument("-q", "--quiet", action="store_true")
+    r.set_defaults(func=_cmd_record)

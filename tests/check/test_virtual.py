@@ -1,0 +1,103 @@
+"""`fingertip check` on virtual units behind a real pty: every build fault is found and
+named; clean units with their normal spread raise no failure; the CLI's exits and report."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from fingertip.check import run_check
+from fingertip.check.guide import NoPromptGuide
+from fingertip.check.probe import DeviceProbe
+from fingertip.device import Fingertip
+from fingertip.sim.bringup import SimAudio, SimGuide, VirtualUnit
+from fingertip.sim.faults import FAULTS, parse_fault, parse_faults
+from fingertip.sim.pty_device import PtyDevice
+
+SPEED = 6.0
+"""Device seconds per wall second: the check's 15 s in about 2.5 s."""
+CLEAN_UNITS = 50
+
+
+def check_unit(seed: int, faults=(), prompt: bool = True, speed: float = SPEED):
+    unit = VirtualUnit(seed, parse_faults(list(faults)))
+    with PtyDevice(unit.firmware, speed=speed) as dev, Fingertip(dev.port) as ft:
+        guide = SimGuide(unit) if prompt else NoPromptGuide()
+        return run_check(DeviceProbe(ft), guide, SimAudio(unit))
+
+
+@pytest.mark.parametrize("fault", list(FAULTS))
+def test_each_fault_is_found_and_named(fault):
+    rep = check_unit(11, [fault])
+    assert rep.faults == {fault}, rep.table()
+    assert rep.exit_code() == 1
+
+
+@pytest.mark.parametrize("spec", ["swapped-data:0,2", "swapped-data:1,3", "reversed-gauge:0",
+                                  "loose-gauge:3", "missing-chip:0"])
+def test_faults_on_other_channels(spec):
+    rep = check_unit(5, [spec])
+    f = parse_fault(spec)
+    assert rep.faults == {f.name}, rep.table()
+    named = {r.channel for r in rep.failures}
+    assert set(f.channels) <= named
+
+
+@pytest.mark.slow
+def test_no_false_failure_on_clean_units():
+    failures = {}
+    for seed in range(CLEAN_UNITS):
+        rep = check_unit(1000 + seed, speed=8.0)
+        if rep.failures:
+            failures[seed] = [(r.check, r.channel, r.value) for r in rep.failures]
+    assert not failures
+
+
+def test_no_prompt_skips_and_says_so():
+    rep = check_unit(2, prompt=False)
+    assert rep.ok
+    assert len(rep.skipped_steps) == 5
+    assert any(s.startswith("press +X") for s in rep.skipped_steps)
+    assert rep.mapping is None
+
+
+def test_fault_names_parse():
+    assert parse_fault("swapped-data").channels == (0, 1)
+    assert parse_fault("piezo-humming").piezo
+    for bad in ("nope", "swapped-data:1", "reversed-gauge:9", "piezo-clipping:1",
+                "loose-gauge:x"):
+        with pytest.raises(ValueError):
+            parse_fault(bad)
+
+
+def run_cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "fingertip.cli", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=120)
+
+
+def test_cli_fault_exit_table_and_json(tmp_path):
+    r = run_cli("check", "--virtual", "--fault", "reversed-gauge", "--speed", str(SPEED),
+                "--report", "r.json", "-q", cwd=tmp_path)
+    assert r.returncode == 1, r.stderr
+    assert "FAIL polarity ch2: channel 2 is reversed" in r.stdout
+    d = json.loads((tmp_path / "r.json").read_text())
+    assert d["faults"] == ["reversed-gauge"] and d["mapping"]["sign"] == [1, 1, -1, 1]
+    assert d["device"]["virtual"]["faults"] == ["reversed-gauge"]
+
+
+def test_cli_no_prompt_and_bad_input(tmp_path):
+    r = run_cli("check", "--virtual", "--no-prompt", "--speed", str(SPEED), "--json", "-q",
+                cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["skipped_steps"]
+    r = run_cli("check", "--virtual", "--fault", "bogus", cwd=tmp_path)
+    assert r.returncode == 2 and "unknown fault 'bogus'" in r.stderr
+    r = run_cli("check", "--port", str(tmp_path / "nothing"), "--fault", "open-bridge",
+                cwd=tmp_path)
+    assert r.returncode == 2 and "--fault needs --virtual" in r.stderr
+    r = run_cli("check", "--port", str(tmp_path / "nothing"), cwd=tmp_path)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    r = run_cli("sim", "faults", cwd=tmp_path)
+    assert r.returncode == 0 and "stuck-dout" in r.stdout
