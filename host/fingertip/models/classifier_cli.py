@@ -30,6 +30,17 @@ def _hidden(text: str) -> tuple[int, ...]:
     return out
 
 
+def _models(text: str) -> tuple[str, ...]:
+    from .candidates import CANDIDATES
+
+    out = tuple(v.strip() for v in text.split(",") if v.strip())
+    bad = [v for v in out if v not in CANDIDATES]
+    if not out or bad:
+        raise argparse.ArgumentTypeError(f"models are some of {','.join(CANDIDATES)}, not "
+                                         f"{text!r}")
+    return out
+
+
 def _user_errors():
     from ..audio import AudioError
     from .classify import DatasetError, ModelError
@@ -71,8 +82,11 @@ def _split_line(split: dict) -> str:
 
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
-    recordings, any rate from 1 to 384 kHz): 0.5 s windows, gain-free log band spectra,
-    an MLP exported to ONNX, evaluated on held-out recordings."""
+    recordings, any rate from 1 to 384 kHz, any length from 0.1 s): windows and bands
+    adapted to the recordings, answers that grow with the slide (0.25 s, 0.5 s, ... the
+    whole recording), candidate models (a log-spectrum logistic-regression baseline,
+    logistic regression on log bands, an MLP) chosen by cross-validation by recording,
+    calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from .classify import json_safe
     from .features import FeatureConfig
     from .material import train_material
@@ -82,7 +96,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                            features=FeatureConfig(canonical_rate=args.canonical_rate),
                            hidden=args.hidden, test_fraction=args.test_fraction,
                            seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
-                           epochs=args.epochs, folds=args.folds)
+                           epochs=args.epochs, folds=args.folds, models=args.models)
     except _user_errors() as e:
         log.error("%s", e)
         return 2
@@ -94,9 +108,38 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
           f"classes at {', '.join(f'{x:g}' for x in d['rates_hz'])} Hz; bands "
           f"{r.report['features']['f_lo']:g}-{r.report['features']['f_hi']:g} Hz")
     print(_split_line(r.report["split"]))
+    _print_material_report(r.report)
     _print_evaluation(r.evaluation)
     print("wrote " + ", ".join(str(p) for p in r.files))
     return 0
+
+
+def _print_material_report(rep: dict) -> None:
+    st = rep["setup"]
+    print(f"windows: first answer after {st['first_window_s']:g} s, one every "
+          f"{st['step_s']:g} s, growing to {st['longest_window_s']:g} s")
+    for why in st["why"].values():
+        print(f"  {why}")
+    times = list(next(iter(rep["candidates"].values()))["accuracy_by_time"]) or ["whole"]
+    print("candidates (accuracy per recording at each decision time; cost):")
+    print("  " + f"{'model':<9}" + "".join(f"{t:>8}" for t in times)
+          + "   params  ms/answer")
+    for name, c in rep["candidates"].items():
+        acc = c["accuracy_by_time"]
+        cells = "".join(f"{100 * acc[t]['accuracy']:7.1f}%" if t in acc and
+                        acc[t]["recordings"] else f"{'-':>8}" for t in times)
+        cost = c.get("cost", {})
+        print(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
+              f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f}")
+    print(f"chosen: {rep['choice']}")
+    ttd = rep["summary"]["time_to_decision"]
+    if ttd.get("threshold") is not None:
+        print(f"decisions {100 * ttd['target_accuracy']:g} % right: threshold "
+              f"{ttd['threshold']:g}, median {ttd['median_s']:.3f} s to decide")
+    cal = rep["calibration"]
+    print(f"calibration: temperature {cal['temperature']:.2f}, ECE {cal['ece']:.3f} "
+          f"(uncalibrated {cal['ece_uncalibrated']:.3f}); unknown below "
+          f"{rep['unknown']['below_probability']:.2f}")
 
 
 def _cmd_train_shake(args: argparse.Namespace) -> int:
@@ -177,6 +220,8 @@ def _cmd_classify(args: argparse.Namespace) -> int:
             preds = result.predictions
             for p in preds:
                 _show(p, args.json)
+                if args.decide_at is not None and _decided(p, args.decide_at):
+                    break
         else:
             if args.simulate is not None:
                 src = _simulated_source(args.simulate, args.kind, args.duration,
@@ -197,14 +242,19 @@ def _cmd_classify(args: argparse.Namespace) -> int:
                 for p in clf.stream(src, duration=args.duration, channel=args.channel):
                     preds.append(p)
                     _show(p, args.json)
+                    if args.decide_at is not None and _decided(p, args.decide_at):
+                        break
             except KeyboardInterrupt:
                 pass
             finally:
                 src.stop()
-            result = Classification(preds, clf.classes)
+            result = Classification(preds, clf.classes, clf.unknown_below)
     except _user_errors() as e:
         log.error("%s", e)
         return 2
+    if args.decide_at is not None:
+        return _print_decision(Classification(preds, clf.classes, clf.unknown_below),
+                               args.decide_at, args.json)
     vote = result.vote
     shares = result.shares()
     if args.json:
@@ -219,13 +269,39 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _decided(p, threshold: float) -> bool:
+    run = p.running or p.probabilities
+    return max(run.values()) >= threshold
+
+
+def _print_decision(result, threshold: float, as_json: bool) -> int:
+    if not result.predictions:
+        print(json.dumps({"decision": None}) if as_json else
+              "no prediction (the audio ended before one window)")
+        return 0
+    d = result.decide(threshold)
+    if as_json:
+        print(json.dumps({"decision": d.to_dict(), "threshold": threshold}))
+    elif d.decided:
+        print(f"decision: {d.label} ({100 * d.probability:.1f} % >= {100 * threshold:g} %) "
+              f"after {d.t:.3f} s")
+    else:
+        print(f"no decision at {100 * threshold:g} %: best {d.label} "
+              f"({100 * d.probability:.1f} %) after {d.t:.3f} s")
+    return 0
+
+
 def _show(p, as_json: bool) -> None:
     if as_json:
         print(json.dumps(p.to_dict()), flush=True)
         return
     level = f"{p.level_db:6.1f} dB" if math.isfinite(p.level_db) else "silence"
+    run = ""
+    if p.running:
+        top = max(p.running, key=p.running.get)
+        run = f"  so far: {top} {100 * p.running[top]:5.1f} %"
     print(f"{p.t_start:8.2f}-{p.t_end:7.2f} s  {p.label:<18} {100 * p.probability:5.1f} %  "
-          f"{level}" + ("  CLIPPED" if p.clipped else ""), flush=True)
+          f"{level}" + ("  CLIPPED" if p.clipped else "") + run, flush=True)
 
 
 def add_parsers(sub) -> None:
@@ -265,12 +341,18 @@ def add_parsers(sub) -> None:
     m = tsub.add_parser("material", help="material classifier (sliding contact)",
                         description=_cmd_train_material.__doc__)
     common(m, "material-model")
-    m.add_argument("--window", type=number(float, 0.05, 10, lo_open=True), default=0.5, metavar="S",
-                   help="window length, seconds (default 0.5)")
-    m.add_argument("--step", type=number(float, 0.005, 10, lo_open=True), default=0.1, metavar="S",
-                   help="one window every S seconds (default 0.1: 10 Hz)")
-    m.add_argument("--hidden", type=_hidden, default=(32,), metavar="N[,N...]",
-                   help="hidden layer sizes of the MLP (default 32)")
+    m.add_argument("--window", type=number(float, 0.05, 10, lo_open=True), metavar="S",
+                   help="longest window, seconds (default: the median recording, at most "
+                        "2 s)")
+    m.add_argument("--step", type=number(float, 0.005, 10, lo_open=True), metavar="S",
+                   help="one answer every S seconds (default 0.1, less for short "
+                        "recordings)")
+    m.add_argument("--hidden", type=_hidden, default=(64,), metavar="N[,N...]",
+                   help="hidden layer sizes of the MLP candidate (default 64)")
+    m.add_argument("--models", type=_models, default=("baseline", "linear", "mlp"),
+                   metavar="NAME[,NAME...]",
+                   help="candidate models compared by cross-validation (default "
+                        "baseline,linear,mlp)")
     m.add_argument("--epochs", type=number(int, 0, 100_000, lo_open=True), default=300,
                    help="most training epochs (default 300; early stopping)")
     m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",
@@ -324,6 +406,9 @@ def add_parsers(sub) -> None:
                        help="--simulate: as fast as possible instead of in real time")
         p.add_argument("--seed", type=int, default=0, help="--simulate: which realisation")
         p.add_argument("--json", action="store_true", help="one JSON object per line")
+        p.add_argument("--decide-at", type=number(float, 0, 1, lo_open=True), metavar="P",
+                       help="stop at the first answer whose running probability reaches P "
+                            "(0-1) and print the decision and the time it took")
         p.set_defaults(func=_cmd_classify, kind=kind)
 
 

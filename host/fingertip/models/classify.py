@@ -38,6 +38,7 @@ from .features import (
     as_recording,
     clipped_mask,
     gather_windows,
+    STATS,
     log_window,
     pooled,
     read_recording,
@@ -46,7 +47,7 @@ from .features import (
 
 log = logging.getLogger(__name__)
 
-INPUTS = ("pooled", "spectrogram")
+INPUTS = ("pooled", "spectrogram", "growing")
 MODEL_FORMAT = "fingertip-vibration-1"
 
 
@@ -313,8 +314,11 @@ class WindowSpec:
     """One prediction every ``step_s`` seconds."""
     input: str = "pooled"
     min_frames: int | None = None
-    """Pooled input only: a recording shorter than a window but with at least this many
-    frames gives one (shorter) window instead of none."""
+    """Pooled input: a recording shorter than a window but with at least this many frames
+    gives one (shorter) window instead of none. Growing input: the first window's frames
+    (``frames`` is then the longest window, after which windows slide)."""
+    stats: tuple[str, ...] = STATS
+    """Pooled and growing inputs: the summary statistics per band, in order."""
 
     def __post_init__(self) -> None:
         if self.input not in INPUTS:
@@ -334,6 +338,8 @@ class Windows:
     level_db: np.ndarray
     clipped: np.ndarray
     """Share of clipped samples in each window."""
+    growing: np.ndarray | None = None
+    """Growing input only: whether each window still starts at the recording's start."""
 
     def __len__(self) -> int:
         return len(self.inputs)
@@ -352,20 +358,43 @@ class FeaturePipeline:
         """Seconds of audio one window needs."""
         return (self.spec.frames - 1) * self.cfg.hop_s + self.cfg.win_s
 
-    def windows(self, rec: Recording) -> Windows:
+    def windows(self, rec: Recording, training: bool = False) -> Windows:
+        """The windows of ``rec``; ``training``: for a growing model, the windows it is
+        trained on (:func:`~fingertip.models.anytime.training_bounds`) instead of the
+        ones it answers on."""
         cfg, sp = self.cfg, self.spec
         power = self.spectro(rec.samples, rec.rate, rec.source or "the recording")
+        if sp.input == "growing":
+            return self._growing(rec, power, training)
         starts = window_starts(len(power), sp.frames, sp.step_s, cfg.hop_s)
         frames = sp.frames
         if not len(starts) and sp.input == "pooled" and sp.min_frames \
                 and len(power) >= sp.min_frames:
             starts, frames = np.zeros(1, dtype=np.intp), len(power)
         logw = log_window(gather_windows(power, starts, frames), cfg.floor_db)
-        inputs = pooled(logw) if sp.input == "pooled" else logw
+        inputs = pooled(logw, sp.stats) if sp.input == "pooled" else logw
         t0 = starts * cfg.hop_s
         t1 = t0 + (frames - 1) * cfg.hop_s + cfg.win_s
         lv, cl = _window_stats(rec, t0, t1)
         return Windows(inputs, t0, t1, lv, cl)
+
+    def _growing(self, rec: Recording, power: np.ndarray, training: bool) -> Windows:
+        from .anytime import growing_bounds, span_features, training_bounds
+
+        cfg, sp = self.cfg, self.spec
+        bounds = training_bounds if training else growing_bounds
+        starts, ends = bounds(len(power), sp.frames, sp.min_frames or 1, sp.step_s / cfg.hop_s)
+        inputs = span_features(power, starts, ends, cfg.floor_db, sp.stats)
+        t0 = starts * cfg.hop_s
+        t1 = (ends - 1) * cfg.hop_s + cfg.win_s
+        lv, cl = _window_stats(rec, t0, t1)
+        return Windows(inputs, t0, t1, lv, cl, starts == 0)
+
+    def min_span_s(self) -> float:
+        """Seconds of audio the first prediction needs."""
+        frames = self.spec.min_frames if self.spec.input != "spectrogram" \
+            and self.spec.min_frames else self.spec.frames
+        return (frames - 1) * self.cfg.hop_s + self.cfg.win_s
 
 
 def _window_stats(rec: Recording, t0: np.ndarray, t1: np.ndarray
@@ -423,7 +452,8 @@ def model_metadata(kind: str, cfg: FeatureConfig, spec: WindowSpec, classes: lis
     meta = {"format": MODEL_FORMAT, "kind": kind, "input": spec.input,
             "features": json.dumps(cfg.to_dict()),
             "window": json.dumps({"frames": spec.frames, "step_s": spec.step_s,
-                                  "min_frames": spec.min_frames}),
+                                  "min_frames": spec.min_frames,
+                                  "stats": list(spec.stats)}),
             "classes": json.dumps(classes)}
     meta.update({k: v if isinstance(v, str) else json.dumps(json_safe(v))
                  for k, v in extra.items()})
@@ -444,6 +474,8 @@ class Prediction:
     level_db: float
     clipped: bool
     host_time: float | None = None
+    running: dict[str, float] | None = None
+    """The running class probabilities after this window (everything heard so far)."""
 
     def to_dict(self) -> dict:
         d = {"t_start": round(self.t_start, 4), "t_end": round(self.t_end, 4),
@@ -453,6 +485,8 @@ class Prediction:
              "clipped": self.clipped}
         if self.host_time is not None:
             d["host_time"] = round(self.host_time, 6)
+        if self.running is not None:
+            d["running"] = {k: round(v, 4) for k, v in self.running.items()}
         return d
 
 
@@ -462,13 +496,43 @@ class Classification:
 
     predictions: list[Prediction]
     classes: list[str]
+    unknown_below: float = 0.0
+    """An answer whose top running probability is below this is "unknown"."""
+
+    def running(self) -> np.ndarray:
+        """(predictions, classes) running probabilities (the window's own when the model
+        gives none)."""
+        return np.array([[(q.running or q.probabilities)[c] for c in self.classes]
+                         for q in self.predictions]).reshape(-1, len(self.classes))
+
+    @property
+    def anytime(self) -> bool:
+        return bool(self.predictions) and self.predictions[-1].running is not None
 
     @property
     def vote(self) -> str | None:
+        """The answer for the whole recording: the last running answer of an anytime model
+        (or "unknown"), the majority vote of the windows otherwise."""
         if not self.predictions:
             return None
+        if self.anytime:
+            last = self.running()[-1]
+            k = int(np.argmax(last))
+            return "unknown" if last[k] < self.unknown_below else self.classes[k]
         p = np.array([[q.probabilities[c] for c in self.classes] for q in self.predictions])
         return self.classes[majority_vote(p)]
+
+    def decide(self, threshold: float):
+        """The first moment a class's running probability reached ``threshold``
+        (:class:`~fingertip.models.anytime.Decision`); undecided: the last answer, or
+        "unknown" when it is below the model's unknown level."""
+        from .anytime import decide
+
+        t_end = np.array([q.t_end for q in self.predictions])
+        d = decide(self.running(), t_end, self.classes, threshold)
+        if not d.decided and d.label is not None and d.probability < self.unknown_below:
+            d.label = "unknown"
+        return d
 
     def shares(self) -> dict[str, float]:
         n = len(self.predictions)
@@ -500,9 +564,11 @@ class VibrationClassifier:
         self.cfg = FeatureConfig.from_dict(json.loads(meta["features"]))
         w = json.loads(meta["window"])
         self.spec = WindowSpec(int(w["frames"]), float(w["step_s"]), meta["input"],
-                               w.get("min_frames"))
+                               w.get("min_frames"), tuple(w.get("stats", STATS)))
         self.classes: list[str] = json.loads(meta["classes"])
         self.pipeline = FeaturePipeline(self.cfg, self.spec)
+        self.unknown_below = float(json.loads(meta.get("unknown_below", "0")))
+        self.temperature = float(json.loads(meta.get("temperature", "1")))
 
     @property
     def architecture(self) -> str:
@@ -515,7 +581,8 @@ class VibrationClassifier:
         return self.model(np.ascontiguousarray(inputs, dtype=np.float32))
 
     def _predictions(self, w: Windows, probs: np.ndarray, offset: float = 0.0,
-                     host: Sequence[float] | None = None) -> list[Prediction]:
+                     host: Sequence[float] | None = None,
+                     run: np.ndarray | None = None) -> list[Prediction]:
         out = []
         for i in range(len(w)):
             p = probs[i]
@@ -524,7 +591,9 @@ class VibrationClassifier:
                                   self.classes[k], float(p[k]),
                                   dict(zip(self.classes, map(float, p), strict=True)),
                                   float(w.level_db[i]), bool(w.clipped[i] > CLIP_FLAG),
-                                  None if host is None else float(host[i])))
+                                  None if host is None else float(host[i]),
+                                  None if run is None else
+                                  dict(zip(self.classes, map(float, run[i]), strict=True))))
         return out
 
     def classify(self, rec: Recording | str | os.PathLike, rate: float | None = None
@@ -537,7 +606,14 @@ class VibrationClassifier:
         if not len(w):
             raise FeatureError(f"{rec.source or 'the recording'} lasts {rec.duration:.3f} s: "
                                f"shorter than one window ({self.pipeline.span_s():.3f} s)")
-        return Classification(self._predictions(w, self.predict(w.inputs)), self.classes)
+        probs = self.predict(w.inputs)
+        run = None
+        if self.spec.input == "growing":
+            from .anytime import running
+
+            run = running(probs, w.growing)
+        return Classification(self._predictions(w, probs, run=run), self.classes,
+                              self.unknown_below)
 
     def stream(self, source, *, duration: float | None = None, channel: int = 0,
                stop: Callable[[], bool] | None = None) -> Iterator[Prediction]:
@@ -550,7 +626,8 @@ class VibrationClassifier:
         """
         rate = float(source.sample_rate)
         self.cfg.check_supports(rate, getattr(source, "name", "the audio source"))
-        live = _LiveWindows(self, rate)
+        live = _LiveGrowing(self, rate) if self.spec.input == "growing" \
+            else _LiveWindows(self, rate)
         if not (source.running or source.finished):
             source.start()
         limit = None if duration is None else int(round(duration * rate))
@@ -620,6 +697,63 @@ class _LiveWindows:
         keep_from = int(round(self.next_j * self.step))
         if keep_from > self.buf_start:
             cut = min(len(self.buf), keep_from - self.buf_start)
+            self.buf = self.buf[cut:]
+            self.buf_start += cut
+
+
+class _LiveGrowing:
+    """Growing windows on a stream: every ``step_s``, the summary of everything since the
+    stream's start (or since a gap), at most the model's longest window, and the running
+    probabilities (:func:`~fingertip.models.anytime.running`)."""
+
+    def __init__(self, clf: VibrationClassifier, rate: float) -> None:
+        self.clf = clf
+        self.rate = rate
+        self.span = int(math.ceil(clf.pipeline.span_s() * rate))
+        self.first = int(math.ceil(clf.pipeline.min_span_s() * rate))
+        self.step = clf.spec.step_s * rate
+        self.buf = np.zeros(0)
+        self.buf_start = 0
+        self.origin = 0  # where the current run of windows started (0, or after a gap)
+        self.next_j = 0
+        self.expected = 0
+        self.acc = np.zeros(len(clf.classes))
+        self.n_acc = 0
+
+    def feed(self, x: np.ndarray, first: int, chunk) -> Iterator[Prediction]:
+        if first != self.expected:
+            log.warning("audio gap: frames %d..%d missing; windows restart after it",
+                        self.expected, first)
+            self.buf, self.buf_start, self.origin = np.zeros(0), first, first
+            self.next_j, self.acc, self.n_acc = 0, np.zeros_like(self.acc), 0
+        self.expected = first + len(x)
+        self.buf = np.concatenate([self.buf, x]) if len(self.buf) else x.copy()
+        clf = self.clf
+        while True:
+            e = self.origin + self.first + int(round(self.next_j * self.step))
+            if e > self.buf_start + len(self.buf):
+                break
+            s = max(self.origin, e - self.span)
+            seg = self.buf[s - self.buf_start:e - self.buf_start]
+            w = clf.pipeline.windows(as_recording(seg, self.rate, "live audio", 1.0))
+            self.next_j += 1
+            if not len(w):
+                continue
+            w = Windows(w.inputs[-1:], np.zeros(1), w.t_end[-1:], w.level_db[-1:],
+                        w.clipped[-1:], np.array([s == self.origin]))
+            p = clf.predict(w.inputs)
+            if s == self.origin:
+                run = p
+            else:
+                self.acc += p[0]
+                self.n_acc += 1
+                run = (self.acc / self.n_acc)[None, :]
+            host = [chunk.time_of(e - 1)]
+            yield from clf._predictions(w, p, s / self.rate, host, run)
+        keep = max(self.origin, self.origin + self.first
+                   + int(round(self.next_j * self.step)) - self.span)
+        if keep > self.buf_start:
+            cut = min(len(self.buf), keep - self.buf_start)
             self.buf = self.buf[cut:]
             self.buf_start += cut
 

@@ -70,6 +70,7 @@ N_BANDS = 32
 TOP_FRACTION = 0.9
 """Bands end at this fraction of the Nyquist frequency (above: anti-alias roll-off)."""
 FLOOR_DB = -80.0
+SCALES = ("log", "linear")
 CLIP_FLAG = 1e-3
 """A recording with more than this fraction of clipped samples is flagged."""
 AUDIO_EXTENSIONS = (".wav", ".flac")
@@ -94,8 +95,13 @@ class FeatureConfig:
     win_s: float = WIN_S
     hop_s: float = HOP_S
     floor_db: float = FLOOR_DB
+    scale: str = "log"
+    """Band spacing: ``log`` (geometric centres) or ``linear`` (equal widths: with about one
+    band per FFT bin, the plain log spectrum of the baseline classifier)."""
 
     def __post_init__(self) -> None:
+        if self.scale not in SCALES:
+            raise FeatureError(f"scale must be one of {SCALES}, not {self.scale!r}")
         if not 1_000 <= self.canonical_rate <= 192_000:
             raise FeatureError(f"canonical rate {self.canonical_rate} Hz is out of range")
         if not 4 <= self.n_bands <= 256:
@@ -145,6 +151,8 @@ class FeatureConfig:
         k + 1 (its centre) and falls to edge k + 2."""
         if self.f_hi is None:
             raise FeatureError("f_hi is not decided yet (FeatureConfig.for_rates)")
+        if self.scale == "linear":
+            return np.linspace(self.f_lo, self.f_hi, self.n_bands + 2)
         return np.geomspace(self.f_lo, self.f_hi, self.n_bands + 2)
 
     def band_centres(self) -> np.ndarray:
@@ -541,18 +549,28 @@ def log_window(power: np.ndarray, floor_db: float = FLOOR_DB) -> np.ndarray:
     return out
 
 
-def pooled(logwin: np.ndarray) -> np.ndarray:
-    """Summary of windows of log band power, (..., frames, bands) -> (..., 3 x bands):
-    the mean over time (spectral shape), the standard deviation (how much each band
+STATS = ("mean", "std", "flux")
+
+
+def pooled(logwin: np.ndarray, stats: Sequence[str] = STATS) -> np.ndarray:
+    """Summary of windows of log band power, (..., frames, bands) -> (..., len(stats) x
+    bands): the mean over time (spectral shape), the standard deviation (how much each band
     fluctuates: clicks, impacts, stick-slip) and the mean absolute change between
-    consecutive frames (texture and modulation)."""
-    mean = logwin.mean(axis=-2)
-    std = logwin.std(axis=-2)
-    if logwin.shape[-2] > 1:
-        flux = np.abs(np.diff(logwin, axis=-2)).mean(axis=-2)
-    else:
-        flux = np.zeros_like(mean)
-    return np.concatenate([mean, std, flux], axis=-1)
+    consecutive frames (texture and modulation), in the order of ``stats``."""
+    parts = []
+    for s in stats:
+        if s == "mean":
+            parts.append(logwin.mean(axis=-2))
+        elif s == "std":
+            parts.append(logwin.std(axis=-2))
+        elif s == "flux":
+            parts.append(np.abs(np.diff(logwin, axis=-2)).mean(axis=-2)
+                         if logwin.shape[-2] > 1 else np.zeros(logwin.shape[:-2]
+                                                                + logwin.shape[-1:],
+                                                                logwin.dtype))
+        else:
+            raise ValueError(f"unknown statistic {s!r} (one of {STATS})")
+    return np.concatenate(parts, axis=-1)
 
 
 def window_starts(n_frames: int, window_frames: int, step_s: float, hop_s: float = HOP_S

@@ -2,62 +2,86 @@
 
 The paper slides the fingernail 16 mm over seven materials, turns the contact microphone's
 signal into STFT spectrograms and trains an MLP (95.49 %, copper tape and wax paper confused
-most). Here:
+most). A hand must decide during a slide, on sensors and materials we never saw, so here:
 
-- windows of 0.5 s (43 frames of 11.6 ms) every 0.1 s (predictions at 10 Hz); a recording
-  shorter than one window but longer than 0.25 s gives one shorter window (the paper's
-  slides last 0.4-1.6 s);
-- each window -> gain-free log band spectrogram -> its mean, standard deviation and mean
-  frame-to-frame change per band (:func:`~fingertip.models.features.pooled`, 96 numbers);
-- an MLP (:func:`~fingertip.models.mlp.train_mlp`, numpy) -> ONNX;
-- evaluation split by recording (stratified), accuracy, per-class recall and precision,
-  per window and per recording (majority vote), confusion-matrix PNG, written next to the
-  model in the output folder (``material.onnx``, ``report.json``, ``confusion.png``).
+- the features and windows adapt to the recordings' rates and lengths
+  (:func:`~fingertip.models.candidates.choose_setup`; the report says what and why);
+- every model answers on *growing* windows (:mod:`.anytime`): at each step (10 Hz) the
+  gain-free summary of the log band spectrum of everything heard so far (up to 2 s, then
+  sliding), so one model answers at 0.25 s and at the end of a slide;
+- candidates (the plain log-spectrum + logistic regression baseline, logistic regression on
+  log bands, an MLP) are compared by cross-validation by recording, on their accuracy at
+  decision times 0.25, 0.5, 1, 2 s and the whole recording, and the best (the cheapest when
+  they tie) is exported to ONNX;
+- its probabilities are temperature-scaled on out-of-fold answers, and a recording whose top
+  probability is below what 95 % of the known recordings reach is answered "unknown";
+- the report (``report.json``) gives each candidate's accuracy by decision time and its
+  cost, the accuracy against time to decision (``decision.png``), the expected calibration
+  error (``reliability.png``) and the confusion matrix (``confusion.png``).
 """
 from __future__ import annotations
 
 import json
 import logging
+import math
 import os
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .anytime import DECISION_TIMES
+from .candidates import (
+    CANDIDATES,
+    Answers,
+    Candidate,
+    Fitted,
+    accuracy_by_time,
+    answers_of,
+    calibrated,
+    candidate_windows,
+    candidates,
+    choose_setup,
+    cross_validate,
+    decision_curve,
+    ece_of,
+    fit_on,
+    fold_temperatures,
+    mean_accuracy,
+    time_to_decision,
+)
 from .classify import (
     Dataset,
-    DatasetError,
-    FeaturePipeline,
     ModelEvaluation,
-    WindowSpec,
     dataset_summary,
-    dataset_windows,
-    evaluate_model,
+    evaluate,
     json_safe,
     latency_ms,
     load_folder,
-    merge_evaluations,
     model_metadata,
     plot_confusion,
     require_test_set,
     split_by_recording,
     split_report,
-    stack,
     stratified_folds,
 )
-from .features import FeatureConfig
-from .mlp import MLP
+from .features import FeatureConfig, as_recording
+from .reliability import apply_temperature, fit_temperature, plot_reliability
 
 log = logging.getLogger(__name__)
 
-WINDOW_S = 0.5
-STEP_S = 0.1
-MIN_S = 0.25
-HIDDEN = (32,)
+HIDDEN = (64,)
 MODEL_FILE = "material.onnx"
 REPORT_FILE = "report.json"
 CONFUSION_FILE = "confusion.png"
+DECISION_FILE = "decision.png"
+RELIABILITY_FILE = "reliability.png"
+UNKNOWN_KEEP = 0.95
+"""Share of known recordings (out of fold) whose answer must stay a class, not unknown."""
+TIE = 0.005
+"""Candidates within this mean accuracy of the best are tied: the cheapest wins."""
 
 
 @dataclass
@@ -67,128 +91,283 @@ class TrainResult:
     evaluation: ModelEvaluation
     report: dict
     files: list[Path] = field(default_factory=list)
-    model: MLP | None = None
-    """The trained MLP (float64 reference of the exported ONNX graph)."""
-
-
-def material_spec(cfg: FeatureConfig, window_s: float = WINDOW_S, step_s: float = STEP_S
-                  ) -> WindowSpec:
-    return WindowSpec(cfg.frames_for(window_s), step_s, "pooled",
-                      min_frames=cfg.frames_for(min(MIN_S, window_s)))
+    model: object = None
+    """The trained model (float64 reference of the exported ONNX graph, before the
+    temperature)."""
 
 
 def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, *,
-                   window_s: float = WINDOW_S, step_s: float = STEP_S,
+                   window_s: float | None = None, step_s: float | None = None,
                    hidden: tuple[int, ...] = HIDDEN, test_fraction: float = 0.25,
                    seed: int = 0, rate_hint: float | None = None, max_hz: float | None = None,
                    epochs: int = 300, folds: int = 1, features: FeatureConfig | None = None,
-                   kind: str = "material", plot: bool = True) -> TrainResult:
+                   kind: str = "material", plot: bool = True,
+                   models: tuple[str, ...] = CANDIDATES) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
-    theirs. ``max_hz``: cap the bands (so that the model also runs on recordings at
-    ``max_hz / 0.45`` Hz or more). ``folds`` > 1: k-fold cross-validation by recording
-    (every recording tested once by a model that never saw it; the exported model is then
-    trained on all of them) instead of one split. Returns the evaluation; writes the ONNX
-    model, a JSON report (dataset, split, accuracy, recall, precision, confusion matrices,
-    timings) and a confusion-matrix PNG.
+    theirs. ``max_hz``: cap the bands. ``window_s`` / ``step_s``: the longest window and the
+    step between answers (None: chosen from the data). ``folds`` > 1: k-fold
+    cross-validation by recording chooses the model, calibrates it and is the evaluation;
+    the exported model is then trained on every recording. ``folds`` 1: one split
+    (``test_fraction`` held out); the choice and the calibration use a cross-validation of
+    the training recordings only. ``models``: the candidates (see
+    :data:`~fingertip.models.candidates.CANDIDATES`).
     """
     t_all = time.perf_counter()
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
-    cfg = (features or FeatureConfig()).for_rates(ds.rates, max_hz)
-    spec = material_spec(cfg, window_s, step_s)
-    pipe = FeaturePipeline(cfg, spec)
-    t0 = time.perf_counter()
-    windows, short = dataset_windows(ds, pipe)
-    t_features = time.perf_counter() - t0
-    if short:
-        log.warning("%d recording(s) shorter than %.2f s give no window: %s", len(short),
-                    MIN_S, ", ".join(short[:5]) + (" ..." if len(short) > 5 else ""))
+    setup = choose_setup(ds, features, max_hz, window_s, step_s)
     labels = ds.labels
-    from .cnn import blas_threads
-    from .mlp import to_onnx, train_mlp
-
-    def fit(idx: np.ndarray):
-        x, y, _ = stack(windows, labels, idx)
-        if not len(x):
-            raise DatasetError("no training windows (recordings too short?)")
-        if len(np.unique(y)) < len(ds.classes):
-            raise DatasetError("some class has no training window (recordings too short?)")
-        with blas_threads(1):
-            return train_mlp(x, y, hidden=hidden, task="classification", classes=ds.classes,
-                             epochs=epochs, seed=seed), x
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
+    n_rec = len(labels)
     if folds > 1:
-        tests = stratified_folds(labels, folds, seed)
-        parts = []
-        for te in tests:
-            m, _ = fit(np.setdiff1d(np.arange(len(labels)), te))
-            parts.append(evaluate_model(m.forward, windows, labels, te, ds.classes))
-        evaluation = merge_evaluations(parts)
-        t_cv = time.perf_counter() - t0
-        train_idx = np.arange(len(labels))
-        t0 = time.perf_counter()
-        mlp, x = fit(train_idx)
-        split = {"by": "recording", "cross_validation_folds": folds,
-                 "per_class": {c: {"recordings": n} for c, n in ds.counts().items()},
-                 "folds": [[ds.rel(ds.items[i]) for i in te] for te in tests],
-                 "exported_model": "trained on every recording after the cross-validation"}
+        sel_folds = stratified_folds(labels, folds, seed)
+        train_idx, test_idx = np.arange(n_rec), np.zeros(0, np.intp)
     else:
-        t_cv = 0.0
         train_idx, test_idx = split_by_recording(labels, test_fraction, seed)
         require_test_set(test_idx)
-        mlp, x = fit(train_idx)
-        evaluation = evaluate_model(mlp.forward, windows, labels, test_idx, ds.classes)
-        split = split_report(ds, train_idx, test_idx)
+        least = int(np.bincount(labels[train_idx]).min())
+        inner = min(3, least)
+        sel_folds = [train_idx[f] for f in stratified_folds(labels[train_idx], inner, seed)] \
+            if inner >= 2 else []
+    cands = candidates(setup, models, hidden, epochs)
+    results: dict[str, dict] = {}
+    oof: dict[str, dict[int, Answers]] = {}
+    cws = {}
+    t_cv = time.perf_counter()
+    for cand in cands:
+        t0 = time.perf_counter()
+        cw = cws[cand.name] = candidate_windows(cand, ds)
+        ans = cross_validate(cand, cw, labels, sel_folds, ds.classes, seed) \
+            if sel_folds else {}
+        oof[cand.name] = ans
+        table = accuracy_by_time(ans, labels) if ans else {}
+        results[cand.name] = {"about": cand.about, "accuracy_by_time": table,
+                              "mean_accuracy": mean_accuracy(table) if ans else math.nan,
+                              "features_s": round(cw.seconds, 3),
+                              "cross_validation_s": round(time.perf_counter() - t0, 3),
+                              "inputs": int(cw.test[0].inputs.shape[1])
+                              if len(cw.test[0]) else None}
+    t_cv = time.perf_counter() - t_cv
+    chosen, why = _choose(results, cands)
+    cand = next(c for c in cands if c.name == chosen)
+    ans = oof[chosen]
+    n_sel = len(sel_folds)
+    temps = fold_temperatures(ans, labels, n_sel) if ans else []
+    t_final = fit_temperature(*_pooled(ans, labels)) if ans else 1.0
+    cal = calibrated(ans, temps) if ans else {}
+    t0 = time.perf_counter()
+    fitted = fit_on(cand, cws[chosen], labels, train_idx, ds.classes, seed)
     t_train = time.perf_counter() - t0
-    ev = evaluation.windows
-    summary = {"accuracy": ev.accuracy, "recording_accuracy": evaluation.recordings.accuracy,
-               "test_windows": ev.n, "test_recordings": evaluation.recordings.n,
-               "train_windows": int(len(x)), "folds": folds}
-    meta = model_metadata(kind, cfg, spec, ds.classes, model="mlp",
-                          evaluation=summary, trained_rates_hz=ds.rates)
-    model_path = to_onnx(mlp, out / (f"{kind}.onnx" if kind != "material" else MODEL_FILE),
-                         metadata=meta)
-    # Latency: one window of audio -> prediction, and the model alone.
+    if folds > 1:
+        evaluated = cal
+    else:
+        evaluated = {int(i): _cooled(answers_of(fitted, cws[chosen].test[i]), t_final)
+                     for i in test_idx if len(cws[chosen].test[i])}
+    evaluation = _evaluation(evaluated, cws[chosen], labels, ds.classes)
+    table = accuracy_by_time(evaluated, labels)
+    curve = decision_curve(evaluated, labels)
+    ttd = time_to_decision(curve)
+    ece_val, conf, ok = ece_of(evaluated, labels)
+    _, conf_raw, ok_raw = ece_of(ans if folds > 1 else
+                                 {i: _cooled(a, 1 / t_final) for i, a in evaluated.items()},
+                                 labels)
+    from .reliability import ece as ece_fn
+
+    unknown_min = _unknown_min_probability(cal or evaluated, labels)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"model": chosen, "accuracy": evaluation.windows.accuracy,
+               "recording_accuracy": evaluation.recordings.accuracy,
+               "accuracy_by_time": {k: v["accuracy"] for k, v in table.items()},
+               "time_to_decision": ttd, "ece": ece_val,
+               "test_windows": evaluation.windows.n,
+               "test_recordings": evaluation.recordings.n, "folds": folds,
+               "temperature": t_final, "unknown_below_probability": unknown_min}
+    meta = model_metadata(kind, setup.cfg if chosen != "baseline" else cand.pipe.cfg,
+                          cand.pipe.spec, ds.classes, model=chosen, evaluation=summary,
+                          trained_rates_hz=ds.rates, temperature=t_final,
+                          unknown_below=unknown_min)
+    name = f"{kind}.onnx" if kind != "material" else MODEL_FILE
+    model_path = fitted.export(out / name, t_final, meta)
+    costs = _costs(cands, cws, labels, sel_folds or [test_idx], train_idx, ds, seed,
+                   model_path, chosen)
+    for k, v in costs.items():
+        results[k]["cost"] = v
     from .classify import VibrationClassifier
-    from .features import as_recording
 
     clf = VibrationClassifier(model_path)
-    probe = as_recording(np.random.default_rng(0).normal(0, 0.05, int(round(
-        max(1.0, pipe.span_s()) * 44100))), 44100, "latency probe", full_scale=1.0)
-    one = clf.pipeline.windows(probe).inputs[:1]
-    lat_model = latency_ms(lambda: clf.predict(one))
-    lat_total = latency_ms(lambda: clf.classify(probe), repeats=50)
-    onnx_out = clf.predict(x[:256])
-    ref = mlp.forward(x[:256])
+    probe_x = cws[chosen].test[int(train_idx[0])].inputs[:64]
+    onnx_diff = float(np.max(np.abs(clf.predict(probe_x)
+                                    - apply_temperature(fitted.forward(probe_x), t_final))))
+    split = _split(ds, folds, sel_folds, train_idx, test_idx)
     report = {
-        "kind": kind, "model": "mlp", "model_file": model_path.name,
-        "dataset": dataset_summary(ds), "short_recordings": short,
-        "features": cfg.to_dict(),
-        "window": {"seconds": window_s, "frames": spec.frames, "step_s": step_s,
-                   "min_frames": spec.min_frames},
-        "split": split, "seed": seed,
-        "test_fraction": test_fraction if folds <= 1 else None,
-        "mlp": {"hidden": list(hidden), "parameters": mlp.n_params,
-                "inputs": int(x.shape[1])},
+        "kind": kind, "model": chosen, "model_file": model_path.name,
+        "dataset": dataset_summary(ds),
+        "short_recordings": [ds.rel(it) for it, w in zip(ds.items, cws[chosen].test,
+                                                         strict=True) if not len(w)],
+        "setup": setup.to_dict(), "features": cand.pipe.cfg.to_dict(),
+        "window": {"input": "growing", "first_s": setup.first_s,
+                   "longest_s": setup.longest_s, "step_s": setup.step_s,
+                   "frames": cand.pipe.spec.frames, "min_frames": cand.pipe.spec.min_frames,
+                   "stats": list(cand.pipe.spec.stats)},
+        "candidates": results, "choice": why,
+        "split": split, "seed": seed, "test_fraction": test_fraction if folds <= 1 else None,
         "evaluation": evaluation.to_dict(), "summary": summary,
-        "onnx_max_abs_diff_vs_float64": float(np.max(np.abs(onnx_out - ref))),
-        "timing": {"features_s": round(t_features, 3), "train_s": round(t_train, 3),
-                   "cross_validation_s": round(t_cv, 3),
+        "accuracy_by_time": table, "decision_curve": curve,
+        "calibration": {"method": "temperature scaling on out-of-fold answers of the "
+                                  "training folds", "fold_temperatures": temps,
+                        "temperature": t_final, "ece": ece_val,
+                        "ece_uncalibrated": ece_fn(conf_raw, ok_raw)},
+        "unknown": {"below_probability": unknown_min,
+                    "rule": f"answer unknown when the top probability is below the level "
+                            f"{100 * UNKNOWN_KEEP:g} % of the known recordings reached "
+                            "(out of fold, whole recording)"},
+        "onnx_max_abs_diff_vs_float64": onnx_diff,
+        "timing": {"features_s": round(sum(r["features_s"] for r in results.values()), 3),
+                   "cross_validation_s": round(t_cv, 3), "train_s": round(t_train, 3),
                    "total_s": round(time.perf_counter() - t_all, 3),
-                   "latency_model_ms": lat_model,
-                   "latency_1s_audio_44k1_ms": lat_total},
+                   "latency_model_ms": results[chosen]["cost"]["latency_model_ms"],
+                   "latency_1s_audio_44k1_ms": results[chosen]["cost"]
+                   ["latency_1s_audio_44k1_ms"]},
     }
     files = [model_path, out / REPORT_FILE]
     (out / REPORT_FILE).write_text(json.dumps(json_safe(report), indent=1) + "\n",
                                    encoding="utf-8")
     if plot:
+        ev = evaluation.recordings
         files.append(plot_confusion(
             ev, out / CONFUSION_FILE,
-            f"{kind}: {100 * ev.accuracy:.2f} % of {ev.n} test windows "
-            f"({evaluation.recordings.n} held-out recordings"
-            + (f", {folds}-fold cross-validation)" if folds > 1 else ")")))
-    return TrainResult(out, model_path, evaluation, report, files, mlp)
+            f"{kind} ({chosen}): {100 * ev.accuracy:.2f} % of {ev.n} held-out recordings"
+            + (f" ({folds}-fold cross-validation)" if folds > 1 else "")))
+        files.append(plot_decision(table, curve, out / DECISION_FILE, chosen))
+        files.append(plot_reliability(conf, ok, out / RELIABILITY_FILE,
+                                      f"{chosen}: ECE {ece_val:.3f} (T = {t_final:.2f}) over "
+                                      f"{len(conf)} answers at the decision times"))
+    return TrainResult(out, model_path, evaluation, report, files, fitted.model)
+
+
+def _pooled(ans: dict[int, Answers], labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from .candidates import _at_times
+
+    return _at_times(ans, labels, DECISION_TIMES)
+
+
+def _cooled(a: Answers, t: float) -> Answers:
+    return Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t), a.t_end, a.fold)
+
+
+def _choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
+    scored = {k: v["mean_accuracy"] for k, v in results.items()
+              if math.isfinite(v["mean_accuracy"])}
+    if not scored:
+        name = "linear" if "linear" in results else next(iter(results))
+        return name, f"{name}: too few training recordings per class to cross-validate"
+    best = max(scored.values())
+    order = [c.name for c in cands]  # cheapest first: baseline, linear, mlp
+    tied = [n for n in order if n in scored and scored[n] >= best - TIE]
+    name = tied[0]
+    return name, (f"{name}: mean accuracy over the decision times {100 * scored[name]:.2f} "
+                  f"% (best {100 * best:.2f} %; candidates within {100 * TIE:g} points of "
+                  f"the best are tied and the cheapest of them wins)")
+
+
+def _unknown_min_probability(ans: dict[int, Answers], labels: np.ndarray) -> float:
+    if not ans:
+        return 0.0
+    top = np.array([a.run[-1].max() for a in ans.values()])
+    return float(np.quantile(top, 1 - UNKNOWN_KEEP))
+
+
+def _evaluation(ans: dict[int, Answers], cw, labels: np.ndarray, classes: list[str]
+                ) -> ModelEvaluation:
+    wt, wp, rt, rp = [], [], [], []
+    per = {}
+    for i, a in ans.items():
+        hit = a.probs.argmax(axis=1)
+        wt += [int(labels[i])] * len(hit)
+        wp += hit.tolist()
+        rt.append(int(labels[i]))
+        rp.append(int(np.argmax(a.run[-1])))
+        per[i] = float(np.mean(hit == labels[i]))
+    return ModelEvaluation(evaluate(wt, wp, classes, "windows"),
+                           evaluate(rt, rp, classes, "recordings"), per)
+
+
+def _costs(cands, cws, labels, folds, train_idx, ds, seed, model_path, chosen) -> dict:
+    """Per candidate: parameters, training time on one fold's recordings, onnxruntime
+    latency of one answer, and features + model for 1 s of 44.1 kHz audio."""
+    from .classify import VibrationClassifier
+
+    out = {}
+    fold = folds[0] if len(folds) else np.zeros(0, np.intp)
+    idx = np.setdiff1d(train_idx, fold) if len(fold) else train_idx
+    with tempfile.TemporaryDirectory() as tmp:
+        for cand in cands:
+            t0 = time.perf_counter()
+            m: Fitted = fit_on(cand, cws[cand.name], labels, idx, ds.classes, seed)
+            t_fit = time.perf_counter() - t0
+            meta = model_metadata("material", cand.pipe.cfg, cand.pipe.spec, ds.classes,
+                                  model=cand.name)
+            path = model_path if cand.name == chosen else m.export(
+                Path(tmp) / f"{cand.name}.onnx", 1.0, meta)
+            clf = VibrationClassifier(path)
+            rate = max(44100.0, max(ds.rates))
+            probe = as_recording(np.random.default_rng(0).normal(0, 0.05, int(rate)), rate,
+                                 "latency probe", full_scale=1.0)
+            one = clf.pipeline.windows(probe).inputs[-1:]
+            out[cand.name] = {"parameters": m.n_params,
+                              "train_s_one_fold": round(t_fit, 3),
+                              "latency_model_ms": latency_ms(
+                                  lambda c=clf, x=one: c.predict(x)),
+                              "latency_1s_audio_44k1_ms": latency_ms(
+                                  lambda c=clf, r=probe: c.classify(r), repeats=20, warmup=2)}
+    return out
+
+
+def _split(ds: Dataset, folds: int, sel_folds, train_idx, test_idx) -> dict:
+    if folds > 1:
+        return {"by": "recording", "cross_validation_folds": folds,
+                "per_class": {c: {"recordings": n} for c, n in ds.counts().items()},
+                "folds": [[ds.rel(ds.items[i]) for i in te] for te in sel_folds],
+                "exported_model": "trained on every recording after the cross-validation"}
+    out = split_report(ds, train_idx, test_idx)
+    out["model_choice"] = (f"{len(sel_folds)}-fold cross-validation of the training "
+                           "recordings" if sel_folds else "no cross-validation (too few "
+                           "training recordings per class)")
+    return out
+
+
+def plot_decision(table: dict[str, dict], curve: list[dict], path: str | os.PathLike,
+                  name: str = "") -> Path:
+    """Accuracy against time: at fixed decision times, and at each confidence threshold
+    (median time to decision), the way a user chooses a threshold."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.2, 3.8), dpi=110)
+    pts = [(v["seconds"], v["accuracy"]) for v in table.values()
+           if v["seconds"] is not None and v["recordings"] and math.isfinite(v["accuracy"])]
+    if pts:
+        ax.plot(*zip(*pts, strict=True), "o-", label="fixed decision time")
+    ax.plot([r["median_s"] for r in curve], [r["accuracy"] for r in curve], "s--",
+            color="C1", label="threshold (median time to decision)")
+    for r in curve:
+        ax.annotate(f"{r['threshold']:g}", (r["median_s"], r["accuracy"]), fontsize=6,
+                    xytext=(3, -8), textcoords="offset points")
+    whole = table.get("whole")
+    if whole and whole["recordings"]:
+        ax.axhline(whole["accuracy"], color="grey", lw=1, ls=":", label="whole recording")
+    ax.set_xlabel("seconds from the start of the slide")
+    ax.set_ylabel("accuracy (per recording)")
+    ax.set_title(f"{name}: accuracy against decision time (cross-validation folds)",
+                 fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

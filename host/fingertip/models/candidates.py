@@ -1,0 +1,401 @@
+"""The material trainer's choices: features and windows adapted to the data, candidate
+models, and their cross-validated anytime answers.
+
+:func:`choose_setup` reads the recordings' rates and lengths and decides the band range,
+the first and the longest window and the prediction step, with the reason for each (a
+folder of 1 s slides at 2.2 kHz and one of 0.3 s knocks at 44.1 kHz both train without
+options). :func:`candidates` lists the models the cross-validation chooses from: the plain
+log-spectrum mean-and-deviation with logistic regression (``baseline``), logistic
+regression on the adapted log bands (``linear``) and an MLP on the same (``mlp``). All are
+growing-window models (:mod:`.anytime`): one answer every step, summarising everything
+heard so far. :func:`cross_validate` gives every recording's out-of-fold running
+probabilities; :func:`anytime_scores` turns them into accuracy at each decision time,
+time to decision, calibration and cost.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .anytime import DECISION_TIMES, at_time, running, time_label
+from .classify import (
+    Dataset,
+    DatasetError,
+    FeaturePipeline,
+    Windows,
+    WindowSpec,
+    stratified_folds,
+)
+from .features import FeatureConfig
+from .reliability import apply_temperature, ece, fit_temperature
+
+log = logging.getLogger(__name__)
+
+CANDIDATES = ("baseline", "linear", "mlp")
+LONGEST_S = 2.0
+"""The longest window: beyond it, windows slide and their answers are averaged."""
+FIRST_S = 0.25
+STEP_S = 0.1
+THRESHOLDS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.999)
+TARGET_ACCURACY = 0.95
+LASTED_TOL_S = 0.05
+"""A recording whose last window ends this close to a decision time counts as lasting
+that long (frames cannot reach the very last samples: a 1 s recording's last frame ends
+at 0.997 s)."""
+
+
+@dataclass
+class Setup:
+    """Features and windows chosen for a dataset, and why."""
+
+    cfg: FeatureConfig
+    first_s: float
+    longest_s: float
+    step_s: float
+    reasons: dict[str, str] = field(default_factory=dict)
+
+    def frames(self, seconds: float) -> int:
+        """Frames of a window whose audio spans ``seconds`` (at least 2)."""
+        return max(2, int((seconds - self.cfg.win_s) / self.cfg.hop_s + 1e-6) + 1)
+
+    def spec(self, stats: Sequence[str]) -> WindowSpec:
+        return WindowSpec(self.frames(self.longest_s), self.step_s, "growing",
+                          self.frames(self.first_s), tuple(stats))
+
+    def to_dict(self) -> dict:
+        return {"features": self.cfg.to_dict(), "first_window_s": self.first_s,
+                "longest_window_s": self.longest_s, "step_s": self.step_s,
+                "why": self.reasons}
+
+
+def choose_setup(ds: Dataset, features: FeatureConfig | None = None,
+                 max_hz: float | None = None, window_s: float | None = None,
+                 step_s: float | None = None) -> Setup:
+    """Bands, windows and step for the recordings of ``ds`` (arguments that are given win).
+
+    - bands: top at 0.9 x the lowest rate's Nyquist (at most 7.2 kHz); bottom six octaves
+      below it, between 30 and 100 Hz (low rates keep their low frequencies, where slow
+      textures live; high rates stay above mains hum);
+    - longest window: the median recording's length, at most 2 s (a slide's spectrum is
+      then estimated from all of it; longer recordings average 2 s windows);
+    - first window: 0.25 s, or half the shortest recording when that is shorter (a 0.3 s
+      knock gets a first answer at 0.15 s); at least 3 frames;
+    - step: 0.1 s (10 Hz answers), or a tenth of the median length for short recordings.
+    """
+    base = features or FeatureConfig()
+    cfg = base.for_rates(ds.rates, max_hz)
+    reasons = {"f_hi": f"{cfg.f_hi:g} Hz: 0.9 x the Nyquist frequency of the lowest rate "
+                       f"({min(ds.rates):g} Hz), at most {base.top_for_rate(1e9):g} Hz"}
+    if features is None or features.f_lo == FeatureConfig().f_lo:
+        f_lo = float(min(100.0, max(30.0, cfg.f_hi / 72)))
+        cfg = replace(cfg, f_lo=round(f_lo, 1))
+        reasons["f_lo"] = (f"{cfg.f_lo:g} Hz: six octaves below the top, kept within "
+                           "30-100 Hz (above mains hum when the band allows)")
+    durations = np.array([it.rec.duration for it in ds.items])
+    med, shortest = float(np.median(durations)), float(durations.min())
+    min_span = cfg.win_s + 2 * cfg.hop_s
+    if window_s is None:
+        longest = min(LONGEST_S, med)
+        reasons["longest_window"] = (f"{longest:.3g} s: the median recording lasts "
+                                     f"{med:.3g} s (windows never exceed {LONGEST_S:g} s; "
+                                     "longer recordings average sliding windows)")
+    else:
+        longest = float(window_s)
+        reasons["longest_window"] = f"{longest:.3g} s: given"
+    longest = max(longest, min_span)
+    first = min(FIRST_S, max(min_span, shortest / 2), longest)
+    reasons["first_window"] = (f"{first:.3g} s: the first answer ({FIRST_S:g} s, or half of "
+                               f"the shortest recording, {shortest:.3g} s)")
+    if step_s is None:
+        step = min(STEP_S, max(cfg.hop_s, med / 10))
+        reasons["step"] = f"{step:.3g} s between answers ({STEP_S:g} s, or a tenth of the " \
+                          "median recording for short ones)"
+    else:
+        step = float(step_s)
+        reasons["step"] = f"{step:.3g} s: given"
+    return Setup(cfg, round(first, 4), round(longest, 4), round(step, 4), reasons)
+
+
+# --- candidate models -----------------------------------------------------------------------
+
+@dataclass
+class Fitted:
+    """A trained candidate: probabilities (float64 reference) and its ONNX export."""
+
+    forward: Callable[[np.ndarray], np.ndarray]
+    n_params: int
+    export: Callable[[Path, float, dict], Path]
+    """(path, temperature, metadata) -> path of the ONNX graph."""
+    model: object = None
+
+
+@dataclass
+class Candidate:
+    name: str
+    about: str
+    pipe: FeaturePipeline
+    train: Callable[[np.ndarray, np.ndarray, np.ndarray, list[str], int], Fitted]
+
+
+def _train_linear(x, y, g, classes, seed) -> Fitted:
+    from .cnn import blas_threads
+    from .linear import to_onnx, train_logistic
+
+    with blas_threads(1):  # L-BFGS's small products: threads only contend on 2 cores
+        m = train_logistic(x, y, classes=classes, groups=g, seed=seed)
+    return Fitted(m.forward, m.n_params,
+                  lambda path, t, meta: to_onnx(m, path, temperature=t, metadata=meta), m)
+
+
+def _mlp_trainer(hidden: tuple[int, ...], epochs: int):
+    def train(x, y, g, classes, seed) -> Fitted:
+        from .cnn import blas_threads
+        from .mlp import to_onnx, train_mlp
+
+        with blas_threads(1):
+            m = train_mlp(x, y, hidden=hidden, task="classification", classes=classes,
+                          epochs=epochs, seed=seed)
+
+        def export(path, t, meta):
+            cooled = replace(m, weights=[*m.weights[:-1], m.weights[-1] / t],
+                             biases=[*m.biases[:-1], m.biases[-1] / t])
+            return to_onnx(cooled, path, metadata=meta)
+
+        return Fitted(m.forward, m.n_params, export, m)
+    return train
+
+
+def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
+               hidden: tuple[int, ...] = (64,), epochs: int = 300) -> list[Candidate]:
+    cfg = setup.cfg
+    out = []
+    for name in names:
+        if name == "baseline":
+            df = 1.0 / cfg.win_s
+            n = int(min(256, max(4, (cfg.f_hi - cfg.f_lo) / df)))
+            c = replace(cfg, scale="linear", n_bands=n)
+            out.append(Candidate(name, f"log spectrum ({n} linear bins of {df:.3g} Hz), "
+                                       "mean and deviation over time, logistic regression",
+                                 FeaturePipeline(c, setup.spec(("mean", "std"))),
+                                 _train_linear))
+        elif name == "linear":
+            out.append(Candidate(name, f"{cfg.n_bands} log bands, mean and deviation over "
+                                       "time, logistic regression",
+                                 FeaturePipeline(cfg, setup.spec(("mean", "std"))),
+                                 _train_linear))
+        elif name == "mlp":
+            out.append(Candidate(name, f"{cfg.n_bands} log bands, mean, deviation and "
+                                       f"frame-to-frame change, MLP {list(hidden)}",
+                                 FeaturePipeline(cfg, setup.spec(("mean", "std", "flux"))),
+                                 _mlp_trainer(hidden, epochs)))
+        else:
+            raise ValueError(f"unknown candidate {name!r} (one of {CANDIDATES})")
+    return out
+
+
+# --- cross-validation -----------------------------------------------------------------------
+
+@dataclass
+class Answers:
+    """One recording's running probabilities (after each growing window) and their times."""
+
+    probs: np.ndarray
+    run: np.ndarray
+    t_end: np.ndarray
+    fold: int = -1
+
+
+@dataclass
+class CandidateWindows:
+    train: list[Windows]
+    test: list[Windows]
+    seconds: float
+
+
+def candidate_windows(cand: Candidate, ds: Dataset) -> CandidateWindows:
+    t0 = time.perf_counter()
+    tr = [cand.pipe.windows(it.rec, training=True) for it in ds.items]
+    te = [cand.pipe.windows(it.rec) for it in ds.items]
+    short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
+    if short:
+        log.warning("%d recording(s) shorter than the first window give no answer: %s",
+                    len(short), ", ".join(short[:5]))
+    return CandidateWindows(tr, te, time.perf_counter() - t0)
+
+
+def fit_on(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
+           classes: list[str], seed: int) -> Fitted:
+    rows = [i for i in idx if len(cw.train[i])]
+    if not rows:
+        raise DatasetError("no training windows (recordings too short?)")
+    x = np.concatenate([cw.train[i].inputs for i in rows])
+    y = np.concatenate([np.full(len(cw.train[i]), labels[i]) for i in rows])
+    g = np.concatenate([np.full(len(cw.train[i]), i) for i in rows])
+    if len(np.unique(y)) < len(classes):
+        raise DatasetError("some class has no training window (recordings too short?)")
+    return cand.train(x, y, g, classes, seed)
+
+
+def answers_of(fitted: Fitted, w: Windows, fold: int = -1) -> Answers:
+    p = fitted.forward(w.inputs)
+    return Answers(p, running(p, w.growing), w.t_end, fold)
+
+
+def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                   folds: list[np.ndarray], classes: list[str], seed: int
+                   ) -> dict[int, Answers]:
+    """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
+    is trained on the recordings of the other folds)."""
+    pool = np.concatenate(folds)
+    out: dict[int, Answers] = {}
+    for f, te in enumerate(folds):
+        m = fit_on(cand, cw, labels, np.setdiff1d(pool, te), classes, seed)
+        for i in te:
+            if len(cw.test[i]):
+                out[int(i)] = answers_of(m, cw.test[i], f)
+    return out
+
+
+# --- scores ---------------------------------------------------------------------------------
+
+def fold_temperatures(ans: dict[int, Answers], labels: np.ndarray, n_folds: int,
+                      times: Sequence[float | None] = DECISION_TIMES) -> list[float]:
+    """For each fold, the temperature fitted on the other folds' out-of-fold answers (at
+    the decision times): every fold is then calibrated without seeing its own recordings."""
+    out = []
+    for f in range(n_folds):
+        p, y = _at_times({i: a for i, a in ans.items() if a.fold != f}, labels, times)
+        out.append(fit_temperature(p, y))
+    return out
+
+
+def _at_times(ans: dict[int, Answers], labels: np.ndarray,
+              times: Sequence[float | None]) -> tuple[np.ndarray, np.ndarray]:
+    ps, ys = [], []
+    for i, a in ans.items():
+        for t in times:
+            q = at_time(a.run, a.t_end, t)
+            if q is not None:
+                ps.append(q)
+                ys.append(labels[i])
+    k = next(iter(ans.values())).run.shape[1] if ans else 0
+    return np.array(ps).reshape(-1, k), np.array(ys, np.int64)
+
+
+def calibrated(ans: dict[int, Answers], temps: Sequence[float]) -> dict[int, Answers]:
+    """The answers with each fold's temperature applied (running probabilities too)."""
+    out = {}
+    for i, a in ans.items():
+        t = temps[a.fold] if 0 <= a.fold < len(temps) else 1.0
+        out[i] = Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t),
+                         a.t_end, a.fold)
+    return out
+
+
+def accuracy_by_time(ans: dict[int, Answers], labels: np.ndarray,
+                     times: Sequence[float | None] = DECISION_TIMES) -> dict[str, dict]:
+    """Per decision time: accuracy over the recordings that lasted that long (per
+    recording, the running answer at that time) and how many they were."""
+    out = {}
+    for t in times:
+        hits = []
+        for i, a in ans.items():
+            if t is not None and a.t_end[-1] < t - LASTED_TOL_S:
+                continue  # the recording ended before t: it has no answer *at* t
+            q = at_time(a.run, a.t_end, t)
+            hits.append(q is not None and int(np.argmax(q)) == labels[i])
+        out[time_label(t)] = {"seconds": t, "accuracy": float(np.mean(hits)) if hits
+                              else math.nan, "recordings": len(hits)}
+    return out
+
+
+def decision_curve(ans: dict[int, Answers], labels: np.ndarray,
+                   thresholds: Sequence[float] = THRESHOLDS) -> list[dict]:
+    """Per threshold: accuracy of the decisions (first running answer at or above it,
+    else the last answer) and the median and 90th percentile time to decision."""
+    from .anytime import decide
+
+    out = []
+    for th in thresholds:
+        ok, ts, undecided = [], [], 0
+        for i, a in ans.items():
+            k = a.run.shape[1]
+            d = decide(a.run, a.t_end, [str(j) for j in range(k)], th)
+            ok.append(d.label is not None and int(d.label) == labels[i])
+            ts.append(d.t)
+            undecided += not d.decided
+        out.append({"threshold": th, "accuracy": float(np.mean(ok)),
+                    "median_s": float(np.median(ts)), "p90_s": float(np.percentile(ts, 90)),
+                    "undecided": undecided})
+    return out
+
+
+def time_to_decision(curve: list[dict], target: float = TARGET_ACCURACY) -> dict:
+    """The lowest threshold whose decisions are ``target`` accurate, and its median time
+    (None when no threshold reaches it)."""
+    for row in curve:
+        if row["accuracy"] >= target:
+            return {"target_accuracy": target, **row}
+    return {"target_accuracy": target, "threshold": None, "accuracy": None,
+            "median_s": None, "p90_s": None, "undecided": None}
+
+
+def ece_of(ans: dict[int, Answers], labels: np.ndarray,
+           times: Sequence[float | None] = DECISION_TIMES) -> tuple[float, np.ndarray,
+                                                                     np.ndarray]:
+    """(ECE, confidence, correct) of the running answers at the decision times."""
+    p, y = _at_times(ans, labels, times)
+    if not len(p):
+        return 0.0, np.zeros(0), np.zeros(0, bool)
+    conf = p.max(axis=1)
+    ok = p.argmax(axis=1) == y
+    return ece(conf, ok), conf, ok
+
+
+def mean_accuracy(table: dict[str, dict]) -> float:
+    v = [r["accuracy"] for r in table.values() if r["recordings"] and
+         math.isfinite(r["accuracy"])]
+    return float(np.mean(v)) if v else math.nan
+
+
+def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: str,
+                  k: int = 5, seed: int = 0) -> dict:
+    """Leave class ``left_out`` out of training: a ``k``-fold cross-validation on the other
+    classes, whose fold models also answer every recording of ``left_out``. Returns the ROC
+    AUC of the unknown score (1 - top calibrated probability, whole recording) of the
+    left-out recordings against the known ones (out of fold), and the share of each
+    answered "unknown" at the trainer's rule (the level 95 % of known recordings reach)."""
+    from .reliability import auroc, unknown_score
+
+    c_out = ds.classes.index(left_out)
+    labels_all = ds.labels
+    known = np.flatnonzero(labels_all != c_out)
+    gone = np.flatnonzero(labels_all == c_out)
+    classes = [c for c in ds.classes if c != left_out]
+    labels = np.where(labels_all > c_out, labels_all - 1, labels_all)
+    folds = [known[f] for f in stratified_folds(labels[known], k, seed)]
+    ans: dict[int, Answers] = {}
+    foreign: list[tuple[int, np.ndarray]] = []
+    for f, te in enumerate(folds):
+        m = fit_on(cand, cw, labels, np.setdiff1d(known, te), classes, seed)
+        for i in te:
+            if len(cw.test[i]):
+                ans[int(i)] = answers_of(m, cw.test[i], f)
+        foreign += [(f, answers_of(m, cw.test[i], f).run[-1]) for i in gone
+                    if len(cw.test[i])]
+    temps = fold_temperatures(ans, labels, len(folds))
+    cal = calibrated(ans, temps)
+    known_scores = unknown_score(np.array([a.run[-1] for a in cal.values()]))
+    out_scores = unknown_score(np.array([apply_temperature(r, temps[f]) for f, r in foreign]))
+    level = float(np.quantile(known_scores, 0.95))
+    return {"left_out": left_out, "auroc": auroc(out_scores, known_scores),
+            "known_recordings": len(known_scores), "left_out_recordings": len(out_scores),
+            "left_out_answered_unknown": float(np.mean(out_scores > level)),
+            "known_answered_unknown": float(np.mean(known_scores > level))}
+

@@ -1,0 +1,164 @@
+"""Multinomial logistic regression: fitted with numpy and scipy (L-BFGS), exported to ONNX.
+
+The plain, strong baseline of the vibration classifiers: standardised features, one weight
+per feature and class, an L2 penalty, softmax. The exported graph is ``Gemm`` + ``Softmax``
+(the standardisation and a temperature folded into the weights), run with onnxruntime like
+the MLPs of :mod:`.mlp`. The L2 strength is chosen by an inner split of the training rows
+(``l2=None``) when the caller does not fix it.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .onnx_io import onnx_builder, save_graph
+
+log = logging.getLogger(__name__)
+
+L2_GRID = (1e-4, 1e-3, 1e-2, 1e-1)
+"""Penalties tried (per row, on standardised features) when ``l2`` is not given."""
+
+
+@dataclass
+class Logistic:
+    """``softmax(((x - mean) / std) @ w + b)`` (float64 reference of the ONNX graph)."""
+
+    w: np.ndarray
+    b: np.ndarray
+    x_mean: np.ndarray
+    x_std: np.ndarray
+    classes: list[str] = field(default_factory=list)
+    l2: float = 0.0
+
+    @property
+    def n_params(self) -> int:
+        return int(self.w.size + self.b.size)
+
+    def logits(self, x: np.ndarray) -> np.ndarray:
+        return ((np.asarray(x, np.float64) - self.x_mean) / self.x_std) @ self.w + self.b
+
+    def forward(self, x: np.ndarray) -> np.ndarray:
+        return softmax(self.logits(x))
+
+
+def softmax(z: np.ndarray) -> np.ndarray:
+    z = z - z.max(axis=-1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=-1, keepdims=True)
+
+
+def _fit(xs: np.ndarray, y: np.ndarray, k: int, l2: float, weights: np.ndarray,
+         w0: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.optimize import minimize
+
+    n, d = xs.shape
+    onehot = np.eye(k)[y]
+    wsum = float(weights.sum())
+
+    def f(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        w = theta[:d * k].reshape(d, k)
+        b = theta[d * k:]
+        z = xs @ w + b
+        z -= z.max(axis=1, keepdims=True)
+        lse = np.log(np.exp(z).sum(axis=1))
+        logp = z - lse[:, None]
+        loss = -float(np.sum(weights * np.sum(onehot * logp, axis=1))) / wsum \
+            + 0.5 * l2 * float(np.sum(w * w))
+        g = (np.exp(logp) - onehot) * (weights / wsum)[:, None]
+        gw = xs.T @ g + l2 * w
+        return loss, np.concatenate([gw.ravel(), g.sum(axis=0)])
+
+    theta0 = np.zeros(d * k + k) if w0 is None else w0
+    res = minimize(f, theta0, jac=True, method="L-BFGS-B",
+                   options={"maxiter": 500, "gtol": 1e-6})
+    if not np.all(np.isfinite(res.x)):
+        raise FloatingPointError("logistic regression diverged")
+    return res.x[:d * k].reshape(d, k), res.x[d * k:]
+
+
+def train_logistic(x: np.ndarray, y: np.ndarray, *, classes: list[str],
+                   l2: float | None = None, groups: np.ndarray | None = None,
+                   seed: int = 0) -> Logistic:
+    """Fit on rows ``x`` with integer labels ``y``.
+
+    ``groups``: the recording of each row; rows are weighted so that every recording counts
+    the same (long recordings give more windows, not more say), and the inner split that
+    picks ``l2`` (when None) is by recording, so that correlated windows of one recording
+    never sit on both sides.
+    """
+    x = np.asarray(x, np.float64)
+    y = np.asarray(y, np.int64)
+    if x.ndim != 2 or len(x) != len(y) or not len(x):
+        raise ValueError(f"need X (n, features) and one label per row, got {x.shape}, "
+                         f"{y.shape}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError("training inputs contain NaN or infinite values")
+    k = len(classes)
+    if y.min() < 0 or y.max() >= k:
+        raise ValueError("labels must be 0..classes-1")
+    g = np.arange(len(y)) if groups is None else np.asarray(groups)
+    _, inv, counts = np.unique(g, return_inverse=True, return_counts=True)
+    weights = 1.0 / counts[inv]
+    mean = x.mean(axis=0)
+    std = x.std(axis=0)
+    std[std < 1e-9] = 1.0
+    xs = (x - mean) / std
+    if l2 is None:
+        l2 = _choose_l2(xs, y, k, g, weights, seed)
+    w, b = _fit(xs, y, k, l2, weights)
+    return Logistic(w, b, mean, std, list(classes), float(l2))
+
+
+def _choose_l2(xs: np.ndarray, y: np.ndarray, k: int, g: np.ndarray, weights: np.ndarray,
+               seed: int) -> float:
+    """The penalty of :data:`L2_GRID` with the best held-out log-loss on a quarter of the
+    recordings (stratified); the middle of the grid when there are too few recordings."""
+    rng = np.random.default_rng(seed + 7)
+    held = []
+    for c in range(k):
+        recs = np.unique(g[y == c])
+        if len(recs) >= 4:
+            held += rng.permutation(recs)[:max(1, len(recs) // 4)].tolist()
+    if not held:
+        return L2_GRID[len(L2_GRID) // 2]
+    te = np.isin(g, held)
+    tr = ~te
+    best, best_l2, theta = math.inf, L2_GRID[-1], None
+    for l2 in sorted(L2_GRID, reverse=True):  # strong to weak: warm starts converge fast
+        w, b = _fit(xs[tr], y[tr], k, l2, weights[tr], theta)
+        theta = np.concatenate([w.ravel(), b])
+        p = softmax(xs[te] @ w + b)
+        loss = -float(np.sum(weights[te] * np.log(p[np.arange(len(p)), y[te]] + 1e-12))
+                      / weights[te].sum())
+        if loss < best - 1e-9:
+            best, best_l2 = loss, l2
+    return best_l2
+
+
+def to_onnx(model: Logistic, path: str | Path, *, temperature: float = 1.0,
+            input_name: str = "features", metadata: dict | None = None,
+            opset: int = 17) -> Path:
+    """Write ``softmax(logits / temperature)`` as a Gemm + Softmax graph (float32)."""
+    _, TensorProto, helper, numpy_helper = onnx_builder()
+    if not temperature > 0:
+        raise ValueError("temperature must be positive")
+    w = model.w / model.x_std[:, None] / temperature
+    b = (model.b - (model.x_mean / model.x_std) @ model.w) / temperature
+    d, k = w.shape
+    inits = [numpy_helper.from_array(w.astype(np.float32), "W"),
+             numpy_helper.from_array(b.astype(np.float32), "b")]
+    nodes = [helper.make_node("Gemm", [input_name, "W", "b"], ["logits"]),
+             helper.make_node("Softmax", ["logits"], ["probabilities"], axis=1)]
+    graph = helper.make_graph(
+        nodes, "fingertip_logistic",
+        [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, ["batch", d])],
+        [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, ["batch", k])],
+        inits)
+    meta = {"task": "classification", "classes": json.dumps(model.classes),
+            "l2": json.dumps(model.l2), "temperature": json.dumps(temperature)}
+    return save_graph(graph, path, {**meta, **(metadata or {})}, opset)

@@ -1,0 +1,123 @@
+"""Honest probabilities: temperature scaling, expected calibration error, reliability
+diagrams, and the score that says "unknown" (with its ROC AUC against known classes).
+
+Temperature scaling divides a model's log-probabilities by one number ``T`` fitted to
+minimise the log-loss of predictions the model made on recordings it never saw (the
+cross-validation's out-of-fold answers on the *training* folds), so it changes confidence,
+never the ranking of classes. Numpy and scipy only (matplotlib for the PNG).
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+T_RANGE = (0.05, 20.0)
+ECE_BINS = 10
+
+
+def apply_temperature(probs: np.ndarray, t: float) -> np.ndarray:
+    """``softmax(log(p) / t)`` row-wise."""
+    z = np.log(np.clip(np.asarray(probs, np.float64), 1e-12, None)) / t
+    z -= z.max(axis=-1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=-1, keepdims=True)
+
+
+def fit_temperature(probs: np.ndarray, labels: np.ndarray,
+                    weights: np.ndarray | None = None) -> float:
+    """The temperature in :data:`T_RANGE` minimising the (weighted) log-loss; 1.0 when
+    there is nothing to fit on."""
+    from scipy.optimize import minimize_scalar
+
+    p = np.asarray(probs, np.float64)
+    y = np.asarray(labels, np.int64)
+    if not len(p):
+        return 1.0
+    w = np.ones(len(p)) if weights is None else np.asarray(weights, np.float64)
+    logp = np.log(np.clip(p, 1e-12, None))
+
+    def loss(log_t: float) -> float:
+        z = logp / math.exp(log_t)
+        z = z - z.max(axis=1, keepdims=True)
+        lse = np.log(np.exp(z).sum(axis=1))
+        return float(-np.sum(w * (z[np.arange(len(y)), y] - lse)) / w.sum())
+
+    res = minimize_scalar(loss, bounds=tuple(math.log(v) for v in T_RANGE), method="bounded",
+                          options={"xatol": 1e-4})
+    return float(math.exp(res.x))
+
+
+def reliability_bins(confidence: np.ndarray, correct: np.ndarray, bins: int = ECE_BINS
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(mean confidence, accuracy, count) per equal-width confidence bin (empty: NaN)."""
+    c = np.asarray(confidence, np.float64)
+    ok = np.asarray(correct, np.float64)
+    idx = np.clip((c * bins).astype(np.intp), 0, bins - 1)
+    n = np.bincount(idx, minlength=bins).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        conf = np.bincount(idx, c, bins) / n
+        acc = np.bincount(idx, ok, bins) / n
+    return conf, acc, n
+
+
+def ece(confidence: np.ndarray, correct: np.ndarray, bins: int = ECE_BINS) -> float:
+    """Expected calibration error: the count-weighted mean |accuracy - confidence| over
+    equal-width confidence bins (0 when there are no predictions)."""
+    conf, acc, n = reliability_bins(confidence, correct, bins)
+    if not n.sum():
+        return 0.0
+    m = n > 0
+    return float(np.sum(n[m] * np.abs(acc[m] - conf[m])) / n.sum())
+
+
+def auroc(positive: np.ndarray, negative: np.ndarray) -> float:
+    """Probability that a random ``positive`` score exceeds a random ``negative`` one
+    (ties count half): the ROC AUC. NaN when either side is empty."""
+    a = np.asarray(positive, np.float64)
+    b = np.asarray(negative, np.float64)
+    if not len(a) or not len(b):
+        return math.nan
+    from scipy.stats import rankdata
+
+    r = rankdata(np.concatenate([a, b]))
+    return float((r[:len(a)].sum() - len(a) * (len(a) + 1) / 2) / (len(a) * len(b)))
+
+
+def unknown_score(probs: np.ndarray) -> np.ndarray:
+    """How unlike every trained class a prediction is: 1 minus its top probability."""
+    return 1.0 - np.asarray(probs, np.float64).max(axis=-1)
+
+
+def plot_reliability(confidence: np.ndarray, correct: np.ndarray, path: str | os.PathLike,
+                     title: str = "", bins: int = ECE_BINS) -> Path:
+    """A PNG reliability diagram: accuracy against confidence per bin, with counts."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    conf, acc, n = reliability_bins(confidence, correct, bins)
+    edges = np.linspace(0, 1, bins + 1)
+    fig, ax = plt.subplots(figsize=(4.6, 4.2), dpi=110)
+    ax.plot([0, 1], [0, 1], color="grey", lw=1, ls="--", label="perfect")
+    m = n > 0
+    ax.bar(edges[:-1][m], acc[m], width=1 / bins, align="edge", alpha=0.6,
+           edgecolor="black", label="accuracy")
+    ax.plot(conf[m], acc[m], "o", color="C3", ms=4, label="mean confidence")
+    for x, a, k in zip(edges[:-1][m], acc[m], n[m], strict=True):
+        ax.text(x + 0.5 / bins, min(a + 0.02, 0.97), f"{int(k)}", ha="center", fontsize=6)
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("confidence (top probability)")
+    ax.set_ylabel("accuracy")
+    ax.set_title(title or f"ECE {ece(confidence, correct, bins):.3f}", fontsize=9)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
