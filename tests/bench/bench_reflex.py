@@ -9,7 +9,12 @@ Seeds and ranges (every figure below is from these):
   hum; virtual strain unit 100 with a linear calibration;
 - false contacts: 60 sessions of 10 s (seeds 1000..1059) of the hand moving without touching
   (random joint moves up to 3 rad/s), speech and room noise as above; taps: the same with
-  knocks on the robot at 6 a minute (seeds 2000..2029), reported per tap.
+  knocks on the robot at 6 a minute (seeds 2000..2029), reported per tap;
+- slip: 100 holds (seeds 0..99, ``slip_trials(100, 0)``) of five objects in turn
+  (:data:`~fingertip.sim.physics.grasp.HELD_OBJECTS`: 50-250 g, friction 0.35-0.9), two
+  fingertips (virtual units 100, 101) gripping at 1.15-1.6 x the least force that holds
+  (log-uniform), a load of 20-80 % of the object's mass added in 5 ms after 0.3 s, held 1 s;
+  each trial with the fused reflex, the force-only reflex and none.
 """
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ import numpy as np
 
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
 from fingertip.sim.reflex_eval import run_session, summarise
+from fingertip.tasks.sim_slip import run_hold_trial, slip_trials
 
 CONTACTS = 500
 PER_SESSION = 5
@@ -64,11 +70,55 @@ def contact_figures(contacts: int = CONTACTS, free_sessions: int = FREE_SESSIONS
     return out
 
 
+SLIP_TRIALS = 100
+
+
+def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
+    rows: dict[str, list[dict]] = {"fused": [], "force": [], "none": []}
+    for tr in slip_trials(trials, 0):
+        for reflex, rs in rows.items():
+            rs.append(run_hold_trial(tr, reflex))
+    out: dict[str, float] = {"slip_trials": trials,
+                             "slip_slipped_no_reflex": sum(r["slipped"] for r in rows["none"])}
+    for reflex, rs in rows.items():
+        tag = {"fused": "", "force": "_force_only", "none": "_no_reflex"}[reflex]
+        out[f"slip_hold_success{tag}"] = round(float(np.mean([r["held"] for r in rs])), 3)
+        out[f"slip_mean_grip_n{tag}"] = round(float(np.mean([r["mean_grip_n"] for r in rs])),
+                                              3)
+        lat = [r["latency_s"] for r in rs if r["latency_s"] is not None]
+        if reflex != "none":
+            out[f"slip_latency_p50_ms{tag}"] = round(float(np.median(lat)) * 1e3, 2) \
+                if lat else float("nan")
+            out[f"slip_detected{tag}"] = len(lat)
+            out[f"slip_false_before_load{tag}"] = sum(r["false_before_load"] for r in rs)
+    out["slip_slipped"] = sum(r["slipped"] for r in rows["fused"])
+    return out
+
+
 def run() -> dict[str, float]:
-    return contact_figures()
+    return {**contact_figures(), **slip_figures()}
 
 
 DESCRIPTION = {
+    "slip_latency_p50_ms": ("true gross-slip onset to the first slip_onset (fused: piezo "
+                            "bursts + force ratio; the recipe reads audio once per 12.5 ms "
+                            "frame), median over the holds that slipped", ("<=", 20.0)),
+    "slip_latency_p50_ms_force_only": ("the same, force ratio alone", None),
+    "slip_hold_success": ("share of the 100 holds whose object stayed in the hand (slid < 10 "
+                          "mm) after the load, with the fused slip reflex", (">=", 0.95)),
+    "slip_hold_success_force_only": ("the same, force-ratio reflex", None),
+    "slip_hold_success_no_reflex": ("the same, keeping the initial grip force", None),
+    "slip_mean_grip_n": ("mean normal force per finger over the holds, fused reflex", None),
+    "slip_mean_grip_n_force_only": ("the same, force-only reflex", None),
+    "slip_mean_grip_n_no_reflex": ("the same, no reflex", None),
+    "slip_trials": ("simulated holds", None),
+    "slip_slipped": ("holds in which the object slipped at all, fused reflex", None),
+    "slip_slipped_no_reflex": ("holds in which the object slipped without a reflex", None),
+    "slip_detected": ("holds with a slip whose slip_onset came after the load, fused", None),
+    "slip_detected_force_only": ("the same, force only", None),
+    "slip_false_before_load": ("slip_onset events before any load (false), fused, all holds",
+                               None),
+    "slip_false_before_load_force_only": ("the same, force only", None),
     "contact_latency_p99_ms_fused": (
         "true contact to the user's callback, p99, fused piezo + force (80 Hz frames); 500 "
         "simulated touches (seeds 1-100, 5-80 mm/s, 0.2-3 N, 0.25-3 N/mm, heights 0-4 mm, "
