@@ -242,15 +242,6 @@ class OnsetDetector:
     def _gated(self, t: float) -> bool:
         return any(a <= t <= b for a, b in self._gates)
 
-    def gated_at(self, t: float) -> bool:
-        """Whether ``t`` lies in a gate not yet passed."""
-        return self._gated(t)
-
-    @property
-    def t_next(self) -> float | None:
-        """Time of the next sample to be fed."""
-        return None if self.t_origin is None else self.t_origin + self._index / self.fs
-
 
 # --- force make and break -----------------------------------------------------------------
 

@@ -87,15 +87,6 @@ class SlipDetector:
         for t, ratio in onsets:
             out += self._emit(t, now, "piezo", ratio)
         return out
-        recent = t_end - self._last < self.cfg.still_window_s
-        quiet = self._quiet.get(finger)
-        if not recent and not out:
-            self._quiet[finger] = det.level if quiet is None else min(det.level, 2 * quiet)
-        elif quiet is not None and det.level > self.cfg.still_factor * quiet + 1e-12 \
-                and not out:
-            # Stick-slip pulses so dense the level has risen to them: still sliding.
-            out += self._emit(t_end, now, "piezo", det.level / max(quiet, 1e-30))
-        return out
 
     def feed_force(self, finger: str, t: float, normal_n: float, tangential_n: float,
                    now: float | None = None) -> list[ReflexEvent]:
