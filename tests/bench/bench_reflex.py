@@ -10,6 +10,8 @@ Seeds and ranges (every figure below is from these):
 - false contacts: 60 sessions of 10 s (seeds 1000..1059) of the hand moving without touching
   (random joint moves up to 3 rad/s), speech and room noise as above; taps: the same with
   knocks on the robot at 6 a minute (seeds 2000..2029), reported per tap;
+- pinch speed: the pinch trials' placements (seeds 0..24, ``make_world``), tofu and chip,
+  closing speeds 0.5-32 mm/s, per detector (:mod:`fingertip.sim.pinch_speed`);
 - slip: 100 holds (seeds 0..99, ``slip_trials(100, 0)``) of five objects in turn
   (:data:`~fingertip.sim.physics.grasp.HELD_OBJECTS`: 50-250 g, friction 0.35-0.9), two
   fingertips (virtual units 100, 101) gripping at 1.15-1.6 x the least force that holds
@@ -18,7 +20,11 @@ Seeds and ranges (every figure below is from these):
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+
+from fingertip.sim import pinch_speed as ps
 
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
 from fingertip.sim.reflex_eval import run_session, summarise
@@ -70,6 +76,7 @@ def contact_figures(contacts: int = CONTACTS, free_sessions: int = FREE_SESSIONS
     return out
 
 
+ROOT = Path(__file__).resolve().parents[2]
 SLIP_TRIALS = 100
 
 
@@ -95,11 +102,41 @@ def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
     return out
 
 
+PINCH_SPEEDS = [0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 16.0, 24.0, 32.0]
+PINCH_PNG = ROOT / "docs" / "img" / "pinch_speed.png"
+_tables: dict[str, str] = {}
+
+
+def pinch_figures(trials: int = 25, png: Path | None = PINCH_PNG) -> dict[str, float]:
+    result = ps.sweep(PINCH_SPEEDS, trials, 0)
+    if png is not None:
+        ps.plot(result, png, trials)
+    _tables["Reflexes: pinch closing speed against success (simulated, seeds 0-24)"] = \
+        ps.table(result, trials) + f"\nCurve: {png.relative_to(ROOT) if png else '-'}\n"
+    best = {m: ps.max_safe_speed(c, trials) for m, c in result.items()}
+    out = {f"pinch_max_speed_mm_s_{m}": b for m, b in best.items()}
+    out["pinch_max_speed_ratio"] = round(best["fused"] / best["force15"], 3) \
+        if best["force15"] else float("nan")
+    return out
+
+
 def run() -> dict[str, float]:
-    return {**contact_figures(), **slip_figures()}
+    return {**contact_figures(), **slip_figures(), **pinch_figures()}
+
+
+def tables(figures: dict) -> dict[str, str]:
+    return dict(_tables)
 
 
 DESCRIPTION = {
+    "pinch_max_speed_ratio": ("highest closing speed keeping 25/25 tofu and 25/25 chips intact "
+                              "with fused contact, over the paper-style force-only 15 Hz one",
+                              (">=", 3.0)),
+    "pinch_max_speed_mm_s_fused": ("highest 25/25-safe closing speed, fused contact (grid "
+                                   "0.5-32 mm/s; seeds 0-24; command 2 ms and braking 5000 "
+                                   "mm/s^2 assumed)", None),
+    "pinch_max_speed_mm_s_force80": ("the same, force-only 80 Hz", None),
+    "pinch_max_speed_mm_s_force15": ("the same, force-only 15 Hz (the paper's rate)", None),
     "slip_latency_p50_ms": ("true gross-slip onset to the first slip_onset (fused: piezo "
                             "bursts + force ratio; the recipe reads audio once per 12.5 ms "
                             "frame), median over the holds that slipped", ("<=", 20.0)),
