@@ -334,72 +334,85 @@ def placements() -> dict[str, tuple[float, float, float]]:
 
 
 def build(out: Path) -> list[str]:
-    out.mkdir(parents=True, exist_ok=True)
-    # start from nothing: pcbnew reads an existing project file, and the output (item UUIDs,
-    # their order in the file) would then depend on the previous run
-    for ext in ("kicad_pcb", "kicad_pro", "kicad_prl"):
-        (out / f"{NAME}.{ext}").unlink(missing_ok=True)
-    shield_footprint(out / f"{LIB}.pretty")
-    write_project_files(out, NAME, LIB, "readout shield footprints (generated)")
-    sch = build_schematic(Layout())
-    sch_path = out / f"{NAME}.kicad_sch"
-    sch.write(sch_path)
-    pin_nets = netlist(sch_path)
-    names = set(pin_nets.values())
     base = ["SCK", "RATE", "RATE_D13"]
     base += [f"DOUT{n}" for n in range(CHANNELS)]
     for n in range(CHANNELS):
         base += [f"BASE{n}", f"VFB{n}", f"VBG{n}", f"G{n}", f"REF{n}", f"AVDD{n}"]
     base += ["PIEZO_P", "PZ_IN", "FB", "RG_AC", "VMID", "VMID_DIV", "AMP_OUT", "OUT_AC",
              "AUDIO", "+5V", "GND"]
+    texts = [("fingertip readout (4 ch)", BX + 44, BY + 44.6),
+             ("D2-D5 DOUT  D12 SCK  D13 RATE", BX + 44, BY + 46.0),
+             ("JP1 RATE: 1-2 D13", BX + 7.3, BY + 39.8),
+             ("3-4 10SPS  5-6 80SPS", BX + 8.4, BY + 41.2)]
+    return generate_shield(out, NAME, build_schematic(Layout()), base,
+                           (BW, BH), placements(), CHANNELS, ["J3"], texts)
+
+
+def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
+                    size: tuple[float, float], pl: dict, channels: int, jacks: list[str],
+                    texts: list[tuple[str, float, float]], descr: str = "readout") -> list[str]:
+    """Write a shield project: footprints, schematic, routed board; returns what failed.
+    base: routing order of the nets (the rest after them, sorted)."""
+    out.mkdir(parents=True, exist_ok=True)
+    # start from nothing: pcbnew reads an existing project file, and the output (item UUIDs,
+    # their order in the file) would then depend on the previous run
+    for ext in ("kicad_pcb", "kicad_pro", "kicad_prl"):
+        (out / f"{name}.{ext}").unlink(missing_ok=True)
+    shield_footprint(out / f"{LIB}.pretty")
+    write_project_files(out, name, LIB, f"{descr} shield footprints (generated)")
+    sch_path = out / f"{name}.kicad_sch"
+    sch.write(sch_path)
+    pin_nets = netlist(sch_path)
+    names = set(pin_nets.values())
     full = {n.lstrip("/"): n for n in names}
     order = [full[b] for b in base if b in full]
     missing = sorted(set(full) - set(base))
     order += [full[m] for m in missing]
-    failed = _board(out, sch, pin_nets, order)
-    finish_project(out / f"{NAME}.kicad_pro", uid(NAME, "root"))
-    (out / f"{NAME}.kicad_prl").unlink(missing_ok=True)
+    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts)
+    finish_project(out / f"{name}.kicad_pro", uid(name, "root"))
+    (out / f"{name}.kicad_prl").unlink(missing_ok=True)
     return failed
 
 
-def _board(out: Path, sch: Schematic, pin_nets, order) -> list[str]:
+def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl, channels,
+                 jacks, texts) -> list[str]:
+    """Place, route (GND as planes), stitch, pour and save; Uno outline at (BX, BY)."""
     import pcbnew
     from board import BoardBuilder, Rules, polygon_inside, stitch
 
     pcbnew.KIID.SeedGenerator(1)   # same item UUIDs every run: byte-identical output
     rules = Rules(track=0.2, clearance=0.15, via=0.6, drill=0.3, edge=0.3, hole_clearance=0.25,
                   grid=0.1)
-    bb = BoardBuilder(str(out / f"{NAME}.kicad_pcb"), rules)
-    corners = [(BX, BY), (BX + BW, BY), (BX + BW, BY + BH), (BX, BY + BH)]
+    bb = BoardBuilder(str(out / f"{name}.kicad_pcb"), rules)
+    w, h = size
+    corners = [(BX, BY), (BX + w, BY), (BX + w, BY + h), (BX, BY + h)]
     for a, b in zip(corners, corners[1:] + corners[:1], strict=False):
         bb.edge_line(a, b)
-    bb.set_aux_origin(BX, BY + BH)
-    pl = placements()
+    bb.set_aux_origin(BX, BY + h)
     for p in sch.parts:
         x, y, rot = pl[p.ref]
         libdir = str(out / f"{LIB}.pretty") if p.footprint.startswith(LIB + ":") else None
-        bb.place(p.ref, p.footprint, x, y, rot, p.value, uid(f"{NAME}/{p.ref}/1"),
+        bb.place(p.ref, p.footprint, x, y, rot, p.value, uid(f"{name}/{p.ref}/1"),
                  libdir=libdir, show_ref=p.ref != "A1")   # A1: the headers, no silk label
-    small_refs_left(bb, pl, CHANNELS)
+    small_refs_left(bb, pl, channels)
     # the jack's library footprint says "exclude from BOM"; it is a BOM part here
-    j3 = bb.fps["J3"]
-    j3.SetAttributes(j3.GetAttributes() & ~pcbnew.FP_EXCLUDE_FROM_BOM)
+    for j in jacks:
+        fp = bb.fps[j]
+        fp.SetAttributes(fp.GetAttributes() & ~pcbnew.FP_EXCLUDE_FROM_BOM)
     ds = bb.board.GetDesignSettings()
     ds.m_TentViasFront = ds.m_TentViasBack = True   # no bare vias over the Uno's USB shell
     bb.assign(pin_nets)
     inside = polygon_inside(corners)
     gnd = next(n for n in bb.nets if n.lstrip("/") == "GND")
-    failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + BW + 0.5, BY + BH + 0.5),
+    failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + w + 0.5, BY + h + 0.5),
                           plane_nets=(gnd,))
     stitch(bb, gnd)
-    inset = [(BX + 0.4, BY + 0.4), (BX + BW - 0.4, BY + 0.4), (BX + BW - 0.4, BY + BH - 0.4),
-             (BX + 0.4, BY + BH - 0.4)]
+    inset = [(BX + 0.4, BY + 0.4), (BX + w - 0.4, BY + 0.4), (BX + w - 0.4, BY + h - 0.4),
+             (BX + 0.4, BY + h - 0.4)]
     bb.zone(gnd, pcbnew.B_Cu, inset)
     bb.zone(gnd, pcbnew.F_Cu, inset)
-    bb.text("fingertip readout (4 ch)", BX + 44, BY + 44.6, size=0.8)
-    bb.text("D2-D5 DOUT  D12 SCK  D13 RATE", BX + 44, BY + 46.0, size=0.8)
-    bb.text("JP1 RATE: 1-2 D13", BX + 7.3, BY + 39.8, size=0.8)
-    bb.text("3-4 10SPS  5-6 80SPS", BX + 8.4, BY + 41.2, size=0.8)
+    for txt, x, y in texts:
+        bb.text(txt, x, y, size=0.8)
     unconnected = bb.save()
     if unconnected:
         failed.append(f"{unconnected} unconnected item(s) after the zone fill")
