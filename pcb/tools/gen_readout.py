@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -55,6 +56,129 @@ RES = {
 }
 
 
+def add_uno(sch: Schematic, pins: dict[str, str]) -> None:
+    """The Uno R3 headers (A1) with pins = {"D2": net, ...}; GND pins on GND, the rest open."""
+    uno: dict[str, str | None] = {str(k): None for k in range(1, 33)}
+    for name, net in pins.items():
+        uno[UNO_PIN[name]] = net
+    for g in ("GND1", "GND2", "GND3"):
+        uno[UNO_PIN[g]] = "GND"
+    sch.add(Part("A1", "MCU_Module:Arduino_UNO_R3", "Arduino_UNO_R3", f"{LIB}:{SHIELD_FP}",
+                 uno, at=(40.64, 80.0),
+                 fields={"Manufacturer": "Adafruit Industries", "MPN": "85",
+                         "Description": "Shield stacking headers for Arduino R3 (1x10, "
+                                        "2x 1x8, 1x6)"}))
+    sch.power_flag("GND", (20.32, 40.64))
+
+
+def add_ffc(sch: Schematic, ref: str, net_of, at, descr: str) -> None:
+    """One fingertip's FFC connector; net_of(fingertip signal) -> this board's net."""
+    ffc: dict[str, str | None] = {str(k): net_of(sig) for k, sig in
+                                  readout_ffc_pinout().items()}
+    ffc["MP"] = "GND"
+    sch.add(Part(ref, "Connector_Generic_MountingPin:Conn_01x08_MountingPin",
+                 "FH12-8S-0.5SH(55)", geo.FFC_FOOTPRINT, ffc, at=at,
+                 fields={"Manufacturer": "Hirose Electric", "MPN": "FH12-8S-0.5SH(55)",
+                         "Description": descr}))
+
+
+def add_rate_jumper(sch: Schematic, at) -> None:
+    """RATE jumper JP1: 1-2 = D13 (firmware), 3-4 = GND (10 SPS), 5-6 = +5V (80 SPS)."""
+    sch.add(Part("JP1", "Connector_Generic:Conn_02x03_Odd_Even", "RATE",
+                 "Connector_PinHeader_2.54mm:PinHeader_2x03_P2.54mm_Vertical",
+                 {"1": "RATE", "3": "RATE", "5": "RATE", "2": "RATE_D13", "4": "GND",
+                  "6": "+5V"}, at=at,
+                 fields={"Manufacturer": "Wurth Elektronik", "MPN": "61300621121",
+                         "Description": "RATE select: one shunt (Wurth 60900213421) on 1-2 "
+                                        "D13 / 3-4 10 SPS / 5-6 80 SPS"}))
+
+
+def add_r(sch: Schematic, ref: str, val: str, a: str, b: str, at, tol: str = "1%",
+          mpn: str | None = None) -> None:
+    sch.add(Part(ref, "Device:R", val, R0603, {"1": a, "2": b}, at=at,
+                 fields=res(val, mpn or RES[val], tol)))
+
+
+def add_c(sch: Schematic, ref: str, val: str, a: str, b: str, at) -> None:
+    fp, f = CAP[val]
+    sch.add(Part(ref, "Device:C", val, fp, {"1": a, "2": b}, at=at, fields=dict(f)))
+
+
+def add_channel(sch: Schematic, n: int, x0: float, y0: float, vsup: str = "+5V",
+                dvdd: str = "+5V") -> None:
+    """One HX711 channel n (datasheet circuit, quarter-bridge completion) at schematic
+    (x0, y0). vsup feeds the chip's regulator and the AVDD pass transistor (the excitation
+    current), dvdd its digital side; the 4-channel shield has both on the Uno's +5V."""
+    R = partial(add_r, sch)
+    C = partial(add_c, sch)
+    u = f"U{n + 1}"
+    sch.add(Part(u, "Analog_ADC:HX711", "HX711", "Package_SO:SOIC-16_3.9x9.9mm_P1.27mm",
+                 {"1": vsup, "2": f"BASE{n}", "3": f"AVDD{n}", "4": f"VFB{n}", "5": "GND",
+                  "6": f"VBG{n}", "7": f"REF{n}", "8": f"G{n}", "9": "GND", "10": "GND",
+                  "11": "SCK", "12": f"DOUT{n}", "13": None, "14": "GND", "15": "RATE",
+                  "16": dvdd}, at=(x0, y0),
+                 fields={"Manufacturer": "Avia Semiconductor", "MPN": "HX711",
+                         "Description": f"24-bit ADC, channel {n} (gauge {n % 4}), XI to "
+                                        "GND: internal oscillator"}))
+    k = 10 * (n + 1)
+    sch.add(Part(f"Q{n + 1}", "Transistor_BJT:SS8550", "SS8550", "Package_TO_SOT_SMD:SOT-23",
+                 {"1": f"BASE{n}", "2": vsup, "3": f"AVDD{n}"}, at=(x0 - 30, y0 - 20),
+                 fields={"Manufacturer": "Jiangsu Changjiang Electronics (JCET)",
+                         "MPN": "SS8550", "Description": "AVDD pass transistor (datasheet: "
+                                                         "S8550)"}))
+    R(f"R{k + 1}", "20k", f"AVDD{n}", f"VFB{n}", (x0 - 40, y0))
+    R(f"R{k + 2}", "8k2", f"VFB{n}", "GND", (x0 - 40, y0 + 12))
+    R(f"R{k + 3}", "120", f"AVDD{n}", f"G{n}", (x0 + 35, y0 - 15), "0.1%",
+      "RT0603BRD07120RL")
+    R(f"R{k + 4}", "120", f"AVDD{n}", f"REF{n}", (x0 + 45, y0 - 15), "0.1%",
+      "RT0603BRD07120RL")
+    R(f"R{k + 5}", "120", f"REF{n}", "GND", (x0 + 45, y0 + 0), "0.1%", "RT0603BRD07120RL")
+    C(f"C{k + 1}", "10u", f"AVDD{n}", "GND", (x0 - 50, y0 - 5))
+    C(f"C{k + 2}", "100n", f"AVDD{n}", "GND", (x0 - 55, y0 - 5))
+    C(f"C{k + 3}", "100n", f"VBG{n}", "GND", (x0 - 50, y0 + 15))
+    C(f"C{k + 4}", "100n", vsup, "GND", (x0 + 20, y0 - 30))
+    if dvdd != vsup:
+        C(f"C{k + 5}", "100n", dvdd, "GND", (x0 + 30, y0 - 30))
+    sch.power_flag(f"AVDD{n}", (x0 - 60, y0 - 20))
+
+
+def add_preamp(sch: Schematic, ref, net, dx: float = 0.0, dy: float = 0.0) -> None:
+    """The piezo preamp (MCP6002: A = gain stage, B = mid-rail buffer) and its 3.5 mm jack.
+    ref / net map the 4-channel shield's references and net names to this copy's."""
+    def R(r, val, a, b, at):
+        add_r(sch, ref(r), val, net(a), net(b), (at[0] + dx, at[1] + dy))
+
+    def C(r, val, a, b, at):
+        add_c(sch, ref(r), val, net(a), net(b), (at[0] + dx, at[1] + dy))
+    sch.add(Part(ref("U5"), "Amplifier_Operational:MCP6002-xSN", "MCP6002",
+                 "Package_SO:SOIC-8_3.9x4.9mm_P1.27mm",
+                 {p: net(v) for p, v in (("3", "PZ_IN"), ("2", "FB"), ("1", "AMP_OUT"),
+                                         ("5", "VMID_DIV"), ("6", "VMID"), ("7", "VMID"),
+                                         ("8", "+5V"), ("4", "GND"))},
+                 at=(130.0 + dx, 220.0 + dy),
+                 unit_at={1: (130.0 + dx, 220.0 + dy), 2: (130.0 + dx, 250.0 + dy),
+                          3: (160.0 + dx, 250.0 + dy)},
+                 fields={"Manufacturer": "Microchip Technology", "MPN": "MCP6002T-I/SN"}))
+    R("R2", "1k", "PIEZO_P", "PZ_IN", (100.0, 215.0))
+    R("R3", "1M", "PZ_IN", "VMID", (110.0, 230.0))
+    R("R4", "191k", "AMP_OUT", "FB", (150.0, 205.0))
+    C("C2", "33p", "AMP_OUT", "FB", (160.0, 205.0))
+    R("R5", "10k", "FB", "RG_AC", (120.0, 235.0))
+    C("C3", "1u", "RG_AC", "GND", (120.0, 245.0))
+    R("R6", "100k", "+5V", "VMID_DIV", (100.0, 245.0))
+    R("R7", "100k", "VMID_DIV", "GND", (100.0, 260.0))
+    C("C4", "10u", "VMID_DIV", "GND", (90.0, 260.0))
+    C("C5", "10u", "AMP_OUT", "OUT_AC", (170.0, 225.0))
+    R("R8", "100", "OUT_AC", "AUDIO", (180.0, 225.0))
+    R("R9", "100k", "AUDIO", "GND", (190.0, 235.0))
+    C("C6", "100n", "+5V", "GND", (180.0, 250.0))
+    sch.add(Part(ref("J3"), "Connector_Audio:AudioJack3", "SJ1-3523N",
+                 "Connector_Audio:Jack_3.5mm_CUI_SJ1-3523N_Horizontal",
+                 {"T": net("AUDIO"), "R": None, "S": "GND"}, at=(205.0 + dx, 225.0 + dy),
+                 fields={"Manufacturer": "CUI Devices", "MPN": "SJ1-3523N",
+                         "Description": "to the USB sound card's mic/line input (tip)"}))
+
+
 def readout_ffc_pinout() -> dict[int, str]:
     """Readout connector pin -> fingertip signal. Same-side (type A) FFC, both connectors
     top-contact, facing each other: fingertip pin n lands on readout pin 9 - n."""
@@ -83,102 +207,17 @@ def build_schematic(lay: Layout) -> Schematic:
                         "Quarter bridge per gauge: 3 x 120R 0.1% completion, excitation AVDD "
                         "4.3 V",
                         "Preamp: 1M bias to mid-rail (80 Hz with 2 nF), gain 1+191k/10k = 20.1"))
-    P = sch.add
-
-    def R(ref, val, a, b, at, tol="1%", mpn=None):
-        P(Part(ref, "Device:R", val, R0603, {"1": a, "2": b}, at=at,
-               fields=res(val, mpn or RES[val], tol)))
-
-    def C(ref, val, a, b, at):
-        fp, f = CAP[val]
-        P(Part(ref, "Device:C", val, fp, {"1": a, "2": b}, at=at, fields=dict(f)))
-
-    # Arduino headers
-    uno = {str(k): None for k in range(1, 33)}
-    for n in range(CHANNELS):
-        uno[UNO_PIN[DOUT_PIN[n]]] = f"DOUT{n}"
-    uno[UNO_PIN["D12"]] = "SCK"
-    uno[UNO_PIN["D13"]] = "RATE_D13"
-    uno[UNO_PIN["+5V"]] = "+5V"
-    for g in ("GND1", "GND2", "GND3"):
-        uno[UNO_PIN[g]] = "GND"
-    P(Part("A1", "MCU_Module:Arduino_UNO_R3", "Arduino_UNO_R3", f"{LIB}:{SHIELD_FP}", uno,
-           at=(40.64, 80.0), fields={"Manufacturer": "Adafruit Industries", "MPN": "85",
-                                      "Description": "Shield stacking headers for Arduino "
-                                                     "R3 (1x10, 2x 1x8, 1x6)"}))
-    sch.power_flag("GND", (20.32, 40.64))
-    # FFC
-    ffc = {str(k): ffc_net(sig) for k, sig in readout_ffc_pinout().items()}
-    ffc["MP"] = "GND"
-    P(Part("J1", "Connector_Generic_MountingPin:Conn_01x08_MountingPin", "FH12-8S-0.5SH(55)",
-           geo.FFC_FOOTPRINT, ffc, at=(40.64, 160.0),
-           fields={"Manufacturer": "Hirose Electric", "MPN": "FH12-8S-0.5SH(55)",
-                   "Description": "FFC from the fingertip, 8 x 0.5 mm"}))
-    # RATE jumper: 1-2 = D13 (firmware), 3-4 = GND (10 SPS), 5-6 = +5V (80 SPS)
-    P(Part("JP1", "Connector_Generic:Conn_02x03_Odd_Even", "RATE",
-           "Connector_PinHeader_2.54mm:PinHeader_2x03_P2.54mm_Vertical",
-           {"1": "RATE", "3": "RATE", "5": "RATE", "2": "RATE_D13", "4": "GND", "6": "+5V"},
-           at=(40.64, 200.0), fields={"Manufacturer": "Wurth Elektronik", "MPN": "61300621121",
-                                      "Description": "RATE select: one shunt (Wurth "
-                                                     "60900213421) on 1-2 D13 / 3-4 10 SPS / "
-                                                     "5-6 80 SPS"}))
+    R = partial(add_r, sch)
+    C = partial(add_c, sch)
+    add_uno(sch, {**{DOUT_PIN[n]: f"DOUT{n}" for n in range(CHANNELS)},
+                  "D12": "SCK", "D13": "RATE_D13", "+5V": "+5V"})
+    add_ffc(sch, "J1", ffc_net, (40.64, 160.0), "FFC from the fingertip, 8 x 0.5 mm")
+    add_rate_jumper(sch, (40.64, 200.0))
     R("R1", "100k", "RATE", "GND", (60.96, 200.0))
     C("C1", "10u", "+5V", "GND", (60.96, 220.0))
     for n in range(CHANNELS):
-        x0 = 110.0 + 75.0 * (n % 2)
-        y0 = 40.0 + 85.0 * (n // 2)
-        u = f"U{n + 1}"
-        P(Part(u, "Analog_ADC:HX711", "HX711", "Package_SO:SOIC-16_3.9x9.9mm_P1.27mm",
-               {"1": "+5V", "2": f"BASE{n}", "3": f"AVDD{n}", "4": f"VFB{n}", "5": "GND",
-                "6": f"VBG{n}", "7": f"REF{n}", "8": f"G{n}", "9": "GND", "10": "GND",
-                "11": "SCK", "12": f"DOUT{n}", "13": None, "14": "GND", "15": "RATE",
-                "16": "+5V"}, at=(x0, y0),
-               fields={"Manufacturer": "Avia Semiconductor", "MPN": "HX711",
-                       "Description": f"24-bit ADC, channel {n} (gauge {n}), XI to GND: "
-                                      "internal oscillator"}))
-        k = 10 * (n + 1)
-        P(Part(f"Q{n + 1}", "Transistor_BJT:SS8550", "SS8550", "Package_TO_SOT_SMD:SOT-23",
-               {"1": f"BASE{n}", "2": "+5V", "3": f"AVDD{n}"}, at=(x0 - 30, y0 - 20),
-               fields={"Manufacturer": "Jiangsu Changjiang Electronics (JCET)",
-                       "MPN": "SS8550", "Description": "AVDD pass transistor (datasheet: "
-                                                       "S8550)"}))
-        R(f"R{k + 1}", "20k", f"AVDD{n}", f"VFB{n}", (x0 - 40, y0))
-        R(f"R{k + 2}", "8k2", f"VFB{n}", "GND", (x0 - 40, y0 + 12))
-        R(f"R{k + 3}", "120", f"AVDD{n}", f"G{n}", (x0 + 35, y0 - 15), "0.1%",
-          "RT0603BRD07120RL")
-        R(f"R{k + 4}", "120", f"AVDD{n}", f"REF{n}", (x0 + 45, y0 - 15), "0.1%",
-          "RT0603BRD07120RL")
-        R(f"R{k + 5}", "120", f"REF{n}", "GND", (x0 + 45, y0 + 0), "0.1%", "RT0603BRD07120RL")
-        C(f"C{k + 1}", "10u", f"AVDD{n}", "GND", (x0 - 50, y0 - 5))
-        C(f"C{k + 2}", "100n", f"AVDD{n}", "GND", (x0 - 55, y0 - 5))
-        C(f"C{k + 3}", "100n", f"VBG{n}", "GND", (x0 - 50, y0 + 15))
-        C(f"C{k + 4}", "100n", "+5V", "GND", (x0 + 20, y0 - 30))
-        sch.power_flag(f"AVDD{n}", (x0 - 60, y0 - 20))
-    # Piezo preamp (MCP6002: A = gain stage, B = mid-rail buffer)
-    P(Part("U5", "Amplifier_Operational:MCP6002-xSN", "MCP6002",
-           "Package_SO:SOIC-8_3.9x4.9mm_P1.27mm",
-           {"3": "PZ_IN", "2": "FB", "1": "AMP_OUT", "5": "VMID_DIV", "6": "VMID",
-            "7": "VMID", "8": "+5V", "4": "GND"}, at=(130.0, 220.0),
-           unit_at={1: (130.0, 220.0), 2: (130.0, 250.0), 3: (160.0, 250.0)},
-           fields={"Manufacturer": "Microchip Technology", "MPN": "MCP6002T-I/SN"}))
-    R("R2", "1k", "PIEZO_P", "PZ_IN", (100.0, 215.0))
-    R("R3", "1M", "PZ_IN", "VMID", (110.0, 230.0))
-    R("R4", "191k", "AMP_OUT", "FB", (150.0, 205.0))
-    C("C2", "33p", "AMP_OUT", "FB", (160.0, 205.0))
-    R("R5", "10k", "FB", "RG_AC", (120.0, 235.0))
-    C("C3", "1u", "RG_AC", "GND", (120.0, 245.0))
-    R("R6", "100k", "+5V", "VMID_DIV", (100.0, 245.0))
-    R("R7", "100k", "VMID_DIV", "GND", (100.0, 260.0))
-    C("C4", "10u", "VMID_DIV", "GND", (90.0, 260.0))
-    C("C5", "10u", "AMP_OUT", "OUT_AC", (170.0, 225.0))
-    R("R8", "100", "OUT_AC", "AUDIO", (180.0, 225.0))
-    R("R9", "100k", "AUDIO", "GND", (190.0, 235.0))
-    C("C6", "100n", "+5V", "GND", (180.0, 250.0))
-    P(Part("J3", "Connector_Audio:AudioJack3", "SJ1-3523N",
-           "Connector_Audio:Jack_3.5mm_CUI_SJ1-3523N_Horizontal",
-           {"T": "AUDIO", "R": None, "S": "GND"}, at=(205.0, 225.0),
-           fields={"Manufacturer": "CUI Devices", "MPN": "SJ1-3523N",
-                   "Description": "to the USB sound card's mic/line input (tip)"}))
+        add_channel(sch, n, 110.0 + 75.0 * (n % 2), 40.0 + 85.0 * (n // 2))
+    add_preamp(sch, lambda r: r, lambda n: n)
     sch.note("Bridge (each channel n): gauge n (on the fingertip) from G n to GAUGE_COM (= GND)\n"
              "R n3 from AVDD n to G n; R n4 / R n5 form the reference half (AVDD n / 2).\n"
              "INA+ = G n, INA- = REF n: tension (R up) reads positive. Gain 128, channel A.\n"
@@ -228,6 +267,41 @@ def uno_pads(ox: float, oy: float) -> dict[int, tuple[float, float]]:
     return p
 
 
+def place_channel(pl: dict, n: int, cx: float, cy: float, dvdd_cap: bool = False) -> None:
+    """Footprints of channel n around its HX711 at (cx, cy): the regulator parts in a column
+    on the left, the decoupling above, the bridge completion below."""
+    k = 10 * (n + 1)
+    pl[f"U{n + 1}"] = (cx, cy, 0.0)
+    lx = cx - 6.8
+    pl[f"Q{n + 1}"] = (lx, cy - 4.6, 0.0)
+    for i, ref in enumerate(column_refs(n)):
+        pl[ref] = (lx, cy - 1.9 + 1.8 * i, 0.0)
+    pl[f"C{k + 1}"] = (cx - 2.3, cy - 7.2, 0.0)
+    pl[f"C{k + 4}"] = (cx + 1.9, cy - 7.2, 0.0)
+    if dvdd_cap:
+        pl[f"C{k + 5}"] = (cx + 5.6, cy - 4.6, 90.0)
+    pl[f"R{k + 3}"] = (cx - 3.0, cy + 8.6, 0.0)
+    pl[f"R{k + 4}"] = (cx + 0.4, cy + 8.6, 0.0)
+    pl[f"R{k + 5}"] = (cx + 3.8, cy + 8.6, 0.0)
+
+
+def column_refs(n: int) -> tuple[str, ...]:
+    k = 10 * (n + 1)
+    return (f"C{k + 2}", f"R{k + 1}", f"R{k + 2}", f"C{k + 3}")
+
+
+def small_refs_left(bb, pl: dict, channels: int) -> None:
+    """The stacked column left of each HX711: references left of the parts (not on pads)."""
+    import pcbnew
+    for n in range(channels):
+        for ref in column_refs(n):
+            x, y, _ = pl[ref]
+            t = bb.fps[ref].Reference()
+            t.SetPosition(pcbnew.VECTOR2I(pcbnew.FromMM(x - 2.5), pcbnew.FromMM(y)))
+            t.SetTextSize(pcbnew.VECTOR2I(pcbnew.FromMM(0.8), pcbnew.FromMM(0.8)))
+            t.SetTextThickness(pcbnew.FromMM(0.12))
+
+
 def placements() -> dict[str, tuple[float, float, float]]:
     """(x, y, rotation) of every footprint on the shield."""
     pl: dict[str, tuple[float, float, float]] = {}
@@ -242,19 +316,7 @@ def placements() -> dict[str, tuple[float, float, float]]:
     pl["C1"] = (BX + 24.0, BY + 45.0, 0.0)
     pitch = 14.6
     for n in range(CHANNELS):
-        cx = BX + 17.0 + pitch * n
-        cy = BY + 16.5
-        k = 10 * (n + 1)
-        pl[f"U{n + 1}"] = (cx, cy, 0.0)
-        lx = cx - 6.8
-        pl[f"Q{n + 1}"] = (lx, cy - 4.6, 0.0)
-        for i, ref in enumerate((f"C{k + 2}", f"R{k + 1}", f"R{k + 2}", f"C{k + 3}")):
-            pl[ref] = (lx, cy - 1.9 + 1.8 * i, 0.0)
-        pl[f"C{k + 1}"] = (cx - 2.3, cy - 7.2, 0.0)
-        pl[f"C{k + 4}"] = (cx + 1.9, cy - 7.2, 0.0)
-        pl[f"R{k + 3}"] = (cx - 3.0, cy + 8.6, 0.0)
-        pl[f"R{k + 4}"] = (cx + 0.4, cy + 8.6, 0.0)
-        pl[f"R{k + 5}"] = (cx + 3.8, cy + 8.6, 0.0)
+        place_channel(pl, n, BX + 17.0 + pitch * n, BY + 16.5)
     # preamp row
     py = BY + 36.0
     pl["U5"] = (BX + 36.0, py, 0.0)
@@ -272,80 +334,85 @@ def placements() -> dict[str, tuple[float, float, float]]:
 
 
 def build(out: Path) -> list[str]:
-    out.mkdir(parents=True, exist_ok=True)
-    # start from nothing: pcbnew reads an existing project file, and the output (item UUIDs,
-    # their order in the file) would then depend on the previous run
-    for ext in ("kicad_pcb", "kicad_pro", "kicad_prl"):
-        (out / f"{NAME}.{ext}").unlink(missing_ok=True)
-    shield_footprint(out / f"{LIB}.pretty")
-    write_project_files(out, NAME, LIB, "readout shield footprints (generated)")
-    sch = build_schematic(Layout())
-    sch_path = out / f"{NAME}.kicad_sch"
-    sch.write(sch_path)
-    pin_nets = netlist(sch_path)
-    names = set(pin_nets.values())
     base = ["SCK", "RATE", "RATE_D13"]
     base += [f"DOUT{n}" for n in range(CHANNELS)]
     for n in range(CHANNELS):
         base += [f"BASE{n}", f"VFB{n}", f"VBG{n}", f"G{n}", f"REF{n}", f"AVDD{n}"]
     base += ["PIEZO_P", "PZ_IN", "FB", "RG_AC", "VMID", "VMID_DIV", "AMP_OUT", "OUT_AC",
              "AUDIO", "+5V", "GND"]
+    texts = [("fingertip readout (4 ch)", BX + 44, BY + 44.6),
+             ("D2-D5 DOUT  D12 SCK  D13 RATE", BX + 44, BY + 46.0),
+             ("JP1 RATE: 1-2 D13", BX + 7.3, BY + 39.8),
+             ("3-4 10SPS  5-6 80SPS", BX + 8.4, BY + 41.2)]
+    return generate_shield(out, NAME, build_schematic(Layout()), base,
+                           (BW, BH), placements(), CHANNELS, ["J3"], texts)
+
+
+def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
+                    size: tuple[float, float], pl: dict, channels: int, jacks: list[str],
+                    texts: list[tuple[str, float, float]], descr: str = "readout") -> list[str]:
+    """Write a shield project: footprints, schematic, routed board; returns what failed.
+    base: routing order of the nets (the rest after them, sorted)."""
+    out.mkdir(parents=True, exist_ok=True)
+    # start from nothing: pcbnew reads an existing project file, and the output (item UUIDs,
+    # their order in the file) would then depend on the previous run
+    for ext in ("kicad_pcb", "kicad_pro", "kicad_prl"):
+        (out / f"{name}.{ext}").unlink(missing_ok=True)
+    shield_footprint(out / f"{LIB}.pretty")
+    write_project_files(out, name, LIB, f"{descr} shield footprints (generated)")
+    sch_path = out / f"{name}.kicad_sch"
+    sch.write(sch_path)
+    pin_nets = netlist(sch_path)
+    names = set(pin_nets.values())
     full = {n.lstrip("/"): n for n in names}
     order = [full[b] for b in base if b in full]
     missing = sorted(set(full) - set(base))
     order += [full[m] for m in missing]
-    failed = _board(out, sch, pin_nets, order)
-    finish_project(out / f"{NAME}.kicad_pro", uid(NAME, "root"))
-    (out / f"{NAME}.kicad_prl").unlink(missing_ok=True)
+    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts)
+    finish_project(out / f"{name}.kicad_pro", uid(name, "root"))
+    (out / f"{name}.kicad_prl").unlink(missing_ok=True)
     return failed
 
 
-def _board(out: Path, sch: Schematic, pin_nets, order) -> list[str]:
+def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl, channels,
+                 jacks, texts) -> list[str]:
+    """Place, route (GND as planes), stitch, pour and save; Uno outline at (BX, BY)."""
     import pcbnew
     from board import BoardBuilder, Rules, polygon_inside, stitch
 
     pcbnew.KIID.SeedGenerator(1)   # same item UUIDs every run: byte-identical output
     rules = Rules(track=0.2, clearance=0.15, via=0.6, drill=0.3, edge=0.3, hole_clearance=0.25,
                   grid=0.1)
-    bb = BoardBuilder(str(out / f"{NAME}.kicad_pcb"), rules)
-    corners = [(BX, BY), (BX + BW, BY), (BX + BW, BY + BH), (BX, BY + BH)]
+    bb = BoardBuilder(str(out / f"{name}.kicad_pcb"), rules)
+    w, h = size
+    corners = [(BX, BY), (BX + w, BY), (BX + w, BY + h), (BX, BY + h)]
     for a, b in zip(corners, corners[1:] + corners[:1], strict=False):
         bb.edge_line(a, b)
-    bb.set_aux_origin(BX, BY + BH)
-    pl = placements()
+    bb.set_aux_origin(BX, BY + h)
     for p in sch.parts:
         x, y, rot = pl[p.ref]
         libdir = str(out / f"{LIB}.pretty") if p.footprint.startswith(LIB + ":") else None
-        bb.place(p.ref, p.footprint, x, y, rot, p.value, uid(f"{NAME}/{p.ref}/1"),
+        bb.place(p.ref, p.footprint, x, y, rot, p.value, uid(f"{name}/{p.ref}/1"),
                  libdir=libdir, show_ref=p.ref != "A1")   # A1: the headers, no silk label
-    # the stacked column left of each HX711: references left of the parts (not on the pads)
-    for n in range(CHANNELS):
-        k = 10 * (n + 1)
-        for ref in (f"C{k + 2}", f"R{k + 1}", f"R{k + 2}", f"C{k + 3}"):
-            x, y, _ = pl[ref]
-            t = bb.fps[ref].Reference()
-            t.SetPosition(pcbnew.VECTOR2I(pcbnew.FromMM(x - 2.5), pcbnew.FromMM(y)))
-            t.SetTextSize(pcbnew.VECTOR2I(pcbnew.FromMM(0.8), pcbnew.FromMM(0.8)))
-            t.SetTextThickness(pcbnew.FromMM(0.12))
+    small_refs_left(bb, pl, channels)
     # the jack's library footprint says "exclude from BOM"; it is a BOM part here
-    j3 = bb.fps["J3"]
-    j3.SetAttributes(j3.GetAttributes() & ~pcbnew.FP_EXCLUDE_FROM_BOM)
+    for j in jacks:
+        fp = bb.fps[j]
+        fp.SetAttributes(fp.GetAttributes() & ~pcbnew.FP_EXCLUDE_FROM_BOM)
     ds = bb.board.GetDesignSettings()
     ds.m_TentViasFront = ds.m_TentViasBack = True   # no bare vias over the Uno's USB shell
     bb.assign(pin_nets)
     inside = polygon_inside(corners)
     gnd = next(n for n in bb.nets if n.lstrip("/") == "GND")
-    failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + BW + 0.5, BY + BH + 0.5),
+    failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + w + 0.5, BY + h + 0.5),
                           plane_nets=(gnd,))
     stitch(bb, gnd)
-    inset = [(BX + 0.4, BY + 0.4), (BX + BW - 0.4, BY + 0.4), (BX + BW - 0.4, BY + BH - 0.4),
-             (BX + 0.4, BY + BH - 0.4)]
+    inset = [(BX + 0.4, BY + 0.4), (BX + w - 0.4, BY + 0.4), (BX + w - 0.4, BY + h - 0.4),
+             (BX + 0.4, BY + h - 0.4)]
     bb.zone(gnd, pcbnew.B_Cu, inset)
     bb.zone(gnd, pcbnew.F_Cu, inset)
-    bb.text("fingertip readout (4 ch)", BX + 44, BY + 44.6, size=0.8)
-    bb.text("D2-D5 DOUT  D12 SCK  D13 RATE", BX + 44, BY + 46.0, size=0.8)
-    bb.text("JP1 RATE: 1-2 D13", BX + 7.3, BY + 39.8, size=0.8)
-    bb.text("3-4 10SPS  5-6 80SPS", BX + 8.4, BY + 41.2, size=0.8)
+    for txt, x, y in texts:
+        bb.text(txt, x, y, size=0.8)
     unconnected = bb.save()
     if unconnected:
         failed.append(f"{unconnected} unconnected item(s) after the zone fill")
