@@ -15,6 +15,7 @@ from .argtypes import dispatch
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
 from .models import calibration_cli, classifier_cli
+from .network import cli as network_cli
 from .record import cli as record_cli
 from .tasks import cli as tasks_cli
 from .protocol import (
@@ -371,6 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
     calibration_cli.add_parsers(sub)
     classifier_cli.add_parsers(sub)
     tasks_cli.add_parsers(sub)
+    network_cli.add_parsers(sub)
     return p
 
 
