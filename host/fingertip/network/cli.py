@@ -14,11 +14,12 @@ from pathlib import Path
 from typing import Any
 
 from ..argtypes import number
-from . import ExtraMissing
+from . import ExtraMissing, require
 
 log = logging.getLogger("fingertip")
 
 TRANSPORTS = ("dds", "zenoh", "lsl")
+SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
 
 
 def load_force_model(spec: str):
@@ -262,6 +263,11 @@ def record_from(args: argparse.Namespace) -> int:
     from ..record.schemas import check_name
     from .receive import NetworkRecorder
 
+    try:
+        require(SOURCE_MODULES[args.from_net], f"record --from {args.from_net}")
+    except ExtraMissing as e:
+        log.error("%s", e)
+        return 2
     try:
         names = [check_name(s.strip()) for s in args.name.split(",")]
         rec = Recorder(Path(args.output), flush_interval=args.flush_interval,

@@ -278,18 +278,11 @@ class DdsNode:
 
         def on_request(data: bytes) -> None:
             stats.requests += 1
-            req_id = parse_request_id(data)
-            if req_id is None:
-                refuse("malformed", None, f"{len(data)} bytes without a request id")
+            req_id, reason, text = check_trigger_request(data)
+            if reason is not None:
+                refuse(reason, req_id, text)
                 return
-            if len(data) > MAX_REQUEST_BYTES:
-                refuse("oversized", req_id, f"request of {len(data)} bytes is larger than a "
-                       f"std_srvs/srv/Trigger request (at most {MAX_REQUEST_BYTES})")
-                return
-            if len(data) < 21:
-                refuse("malformed", req_id, "request has no body (a std_srvs/srv/Trigger "
-                       "request is 21 bytes)")
-                return
+            assert req_id is not None
             if not busy.acquire(blocking=False):
                 refuse("busy", req_id, "busy: the previous request is still running")
                 return
@@ -366,6 +359,26 @@ def subscribe(node: DdsNode, names: list[str], on_message: Callable[[str, str, b
             node.reader(ros_topic(S.topic(name, kind)), S.TOPIC_KINDS[kind], KIND_PROFILE[kind],
                         lambda data, _n=name, _k=kind: on_message(_n, _k, data),
                         depth=1000 if kind != "info" else None)
+
+
+def check_trigger_request(data: bytes) -> tuple[tuple[int, int] | None, str | None, str]:
+    """``(request id or None, reason for refusing or None, message)`` of a Trigger request.
+
+    Cyclone itself drops samples that do not deserialise as the topic's type before they
+    reach us; this is the second line, for what it lets through (trailing bytes) and for
+    transports that check nothing.
+    """
+    req_id = parse_request_id(data)
+    if req_id is None:
+        return None, "malformed", f"{len(data)} bytes without a request id"
+    if len(data) > MAX_REQUEST_BYTES:
+        return req_id, "oversized", (f"request of {len(data)} bytes is larger than a "
+                                     f"std_srvs/srv/Trigger request (at most "
+                                     f"{MAX_REQUEST_BYTES})")
+    if len(data) < 21:
+        return req_id, "malformed", ("request has no body (a std_srvs/srv/Trigger request "
+                                     "is 21 bytes)")
+    return req_id, None, ""
 
 
 def parse_request_id(data: bytes) -> tuple[int, int] | None:

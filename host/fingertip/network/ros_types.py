@@ -125,6 +125,11 @@ def idl_struct(name: str) -> type:
             "int64": T.int64, "uint64": T.uint64, "float32": T.float32,
             "float64": T.float64, "string": str}
     members: dict[str, Any] = {}
+    if "/srv/" in full_name(name):
+        # Service samples carry rmw_cyclonedds' request id ahead of the members
+        # (cdds_request_header_t); Cyclone checks payloads against the type, so it is part
+        # of the DDS type here.
+        members.update(guid=T.uint64, seq=T.int64)
     for ftype, fname in fields(name):
         seq = ftype.endswith("[]")
         base = ftype[:-2] if seq else ftype
