@@ -166,6 +166,11 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             if rec is not None:
                 rec.attach(src, name, force_model=force_model)
         _serve_services(args, transport, feed, rec, sources, names)
+        if audio is not None and hasattr(transport, "declare_audio"):
+            from ..record.schemas import AUDIO_ENCODINGS
+
+            transport.declare_audio(names[0], audio.sample_rate, audio.channels,
+                                    AUDIO_ENCODINGS[audio.dtype.name])
         _wait_subscribers(args, transport)
         try:
             for src, name in zip(sources, names, strict=True):

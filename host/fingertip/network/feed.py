@@ -55,6 +55,8 @@ class Feed:
     def __init__(self, transport: Transport, timebase: TimeBase | None = None) -> None:
         self.transport = transport
         self.timebase = timebase or TimeBase.measure()
+        if hasattr(transport, "timebase"):  # LSL stamps: the same clock mapping as ours
+            transport.timebase = self.timebase
         self.published: Counter[str] = Counter()
         self.errors: Counter[str] = Counter()
         self._models: dict[str, ForceModel | None] = {}
