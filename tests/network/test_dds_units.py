@@ -161,8 +161,6 @@ BLOCK = ("import sys; sys.modules[{mod!r}] = None; from fingertip.cli import mai
 
 @pytest.mark.parametrize("mod,argv,extra", [
     ("cyclonedds", ["publish", "--virtual", "1", "--duration", "1"], "ros"),
-    ("zenoh", ["publish", "--virtual", "1", "--transport", "zenoh", "--duration", "1"],
-     "zenoh"),
     ("pylsl", ["publish", "--virtual", "1", "--transport", "lsl", "--duration", "1"], "lsl"),
     ("cyclonedds", ["record", "--from", "dds", "-o", "{out}"], "ros"),
 ])

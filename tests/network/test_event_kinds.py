@@ -7,8 +7,9 @@ from .conftest import ROOT
 
 # Where the code names an event kind: Event(t, "kind", ...), write_event(name, "kind"...),
 # the publisher's _event(feed, rec, name, "kind"...) and feed.event(name, "kind"...).
-PATTERNS = [r'\bEvent\([^,\n]*(?:\([^)\n]*\))?[^,\n]*,\s*"(\w+)"', r'write_event\([^,()]+,\s*"(\w+)"',
-            r'_event\(feed, rec, [^,()]+,\s*"(\w+)"', r'\.event\([^,()]+,\s*"(\w+)"']
+PATTERNS = [r'\bEvent\([^,\n]*(?:\([^)\n]*\))?[^,\n]*,\s*"(\w+)"',
+            r'write_event\([^,()]+,\s*"(\w+)"', r'_event\(feed, rec, [^,()]+,\s*"(\w+)"',
+            r'\.event\([^,()]+,\s*"(\w+)"']
 
 
 def kinds_in_code() -> set[str]:

@@ -1,4 +1,4 @@
-"""``fingertip publish`` and ``fingertip record --from dds|zenoh|lsl``: the command-line side
+"""``fingertip publish`` and ``fingertip record --from dds|lsl``: the command-line side
 of the network transports. Handlers return 0 done, 2 a user error (one clear line)."""
 from __future__ import annotations
 
@@ -18,8 +18,9 @@ from . import ExtraMissing, require
 
 log = logging.getLogger("fingertip")
 
-TRANSPORTS = ("dds", "zenoh", "lsl")
-SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
+# Zenoh (rmw_zenoh) is not done yet: see docs/ros2.md.
+TRANSPORTS = ("dds", "lsl")
+SOURCE_MODULES = {"dds": "cyclonedds", "lsl": "pylsl"}
 
 
 def load_force_model(spec: str):
@@ -52,10 +53,6 @@ def make_transport(kind: str, args: argparse.Namespace):
         from .dds import DdsTransport
 
         return DdsTransport()
-    if kind == "zenoh":
-        from .zenoh import ZenohTransport
-
-        return ZenohTransport(router=args.router)
     from .lsl import LslTransport
 
     return LslTransport()
@@ -263,7 +260,7 @@ def _summary(feed, transport) -> None:
 # --- record --from ----------------------------------------------------------------------------
 
 def record_from(args: argparse.Namespace) -> int:
-    """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
+    """``fingertip record --from dds|lsl``: what is published, into one MCAP file."""
     from ..record.recorder import Recorder, RecorderError
     from ..record.schemas import check_name
     from .receive import NetworkRecorder
@@ -283,7 +280,7 @@ def record_from(args: argparse.Namespace) -> int:
         return 2
     try:
         try:
-            sink = NetworkRecorder(rec, args.from_net, names, router=args.router)
+            sink = NetworkRecorder(rec, args.from_net, names)
         except Exception as e:  # a missing extra, DDS or Zenoh that cannot start
             log.error("%s", e)
             return 2
@@ -319,7 +316,7 @@ def add_parsers(sub) -> None:
     g.add_argument("--virtual", type=number(int, 1, 16), metavar="N",
                    help="N virtual fingertips (no hardware)")
     p.add_argument("--transport", choices=TRANSPORTS, default="dds",
-                   help="dds (ROS 2, default), zenoh (ROS 2 with rmw_zenoh) or lsl")
+                   help="dds (ROS 2, default) or lsl (Lab Streaming Layer)")
     p.add_argument("--name", help="comma-separated names, one per fingertip, for topics "
                    "/fingertip/NAME/... (default: fingertip, or finger0, finger1...)")
     p.add_argument("--force-model", metavar="MODEL.onnx|MODULE:FUNCTION",
@@ -335,8 +332,6 @@ def add_parsers(sub) -> None:
                    help="serve no service that changes the device (no tare service)")
     p.add_argument("--service-tare-samples", type=number(int, 1, 65535), default=16,
                    metavar="N", help="samples the tare service averages (default 16)")
-    p.add_argument("--router", metavar="ENDPOINT",
-                   help="Zenoh router to connect to, e.g. tcp/192.168.1.2:7447")
     p.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S")
     p.add_argument("--speed", type=number(float, 0, lo_open=True), default=1.0,
                    help="--replay speed (default 1.0)")

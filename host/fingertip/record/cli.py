@@ -273,10 +273,9 @@ def add_parsers(sub) -> None:
     g = r.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
     g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
-    g.add_argument("--from", dest="from_net", choices=("dds", "zenoh", "lsl"),
+    g.add_argument("--from", dest="from_net", choices=("dds", "lsl"),
                    help="record what `fingertip publish` sends on the network (--name: "
                         "comma-separated fingertips)")
-    r.add_argument("--router", metavar="ENDPOINT", help="--from zenoh: a router to connect to")
     r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
                    help="the recording to write")
     r.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",
