@@ -4,7 +4,8 @@ Topic names, message types and payloads are those ``fingertip record`` writes
 (:mod:`fingertip.record.schemas` is the one source of truth): a subscriber on the network
 gets, byte for byte, the CDR messages that a local recording holds.
 
-The transports' libraries are optional extras (``fingertip[ros]``, ``fingertip[lsl]``); :func:`require` turns a missing one into one clear line.
+The transports' libraries are optional extras (``fingertip[ros]``, ``fingertip[lsl]``);
+:func:`require` turns a missing one into one clear line.
 """
 from __future__ import annotations
 
