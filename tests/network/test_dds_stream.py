@@ -1,6 +1,7 @@
-"""A 10 s virtual fingertip run over DDS, received by `fingertip record --from dds` in another
-process: every message arrives, byte for byte what the publisher's local recording holds,
-and an independent CDR implementation (rosbags) decodes it to the same values."""
+"""A 10 s virtual fingertip run over DDS (and Zenoh: test_zenoh_stream), received by
+`fingertip record --from ...` in another process: every message arrives, byte for byte what
+the publisher's local recording holds, and an independent CDR implementation (rosbags)
+decodes it to the same values."""
 from __future__ import annotations
 
 import signal
@@ -75,15 +76,21 @@ def ours(kind: str, data: bytes) -> tuple:
     return tuple(vals)
 
 
-@pytest.mark.slow
-def test_every_message_of_a_10s_run_arrives_and_decodes_independently(tmp_path):
+def run_and_compare(tmp_path, transport: str, sub_args=(), pub_args=(), during=None,
+                    subscribers: int = 1):
+    """Publish a 10 s virtual run over ``transport`` while `record --from` records it in
+    another process; check every message against the publisher's local recording."""
     local, remote = tmp_path / "local.mcap", tmp_path / "remote.mcap"
-    sub = start("record", "--from", "dds", "--name", "index", "-o", str(remote))
+    sub = start("record", "--from", transport, "--name", "index", "-o", str(remote),
+                *sub_args)
     try:
         time.sleep(1.0)
-        pub = start("publish", "--virtual", "1", "--name", "index", "--virtual-audio",
-                    "--force-model", FORCE_MODEL, "--duration", "10", "--record", str(local),
-                    "--wait-subscribers", "1")
+        pub = start("publish", "--transport", transport, "--virtual", "1", "--name", "index",
+                    "--virtual-audio", "--force-model", FORCE_MODEL, "--duration", "10",
+                    "--record", str(local), "--wait-subscribers", str(subscribers),
+                    *pub_args)
+        if during is not None:
+            during()
         out, err = pub.communicate(timeout=60)
         assert pub.returncode == 0, err
         time.sleep(0.5)
@@ -111,3 +118,9 @@ def test_every_message_of_a_10s_run_arrives_and_decodes_independently(tmp_path):
     assert "dropped 0" in sub_err and "undecodable 0" in sub_err
     # What the recording holds is readable by our own reader too.
     assert Recording(remote).names() == ["index"]
+    return a
+
+
+@pytest.mark.slow
+def test_every_message_of_a_10s_run_arrives_and_decodes_independently(tmp_path):
+    run_and_compare(tmp_path, "dds")

@@ -161,7 +161,10 @@ BLOCK = ("import sys; sys.modules[{mod!r}] = None; from fingertip.cli import mai
 
 @pytest.mark.parametrize("mod,argv,extra", [
     ("cyclonedds", ["publish", "--virtual", "1", "--duration", "1"], "ros"),
+    ("zenoh", ["publish", "--virtual", "1", "--transport", "zenoh", "--duration", "1"],
+     "zenoh"),
     ("pylsl", ["publish", "--virtual", "1", "--transport", "lsl", "--duration", "1"], "lsl"),
+    ("zenoh", ["record", "--from", "zenoh", "-o", "{out}"], "zenoh"),
     ("cyclonedds", ["record", "--from", "dds", "-o", "{out}"], "ros"),
 ])
 def test_missing_extra_is_one_line_and_exit_2(tmp_path, mod, argv, extra):

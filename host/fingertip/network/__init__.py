@@ -1,10 +1,11 @@
-"""The fingertip live on a robot's network: ROS 2 over DDS, and Lab Streaming Layer.
+"""The fingertip live on a robot's network: ROS 2 over DDS or Zenoh, and Lab Streaming Layer.
 
 Topic names, message types and payloads are those ``fingertip record`` writes
 (:mod:`fingertip.record.schemas` is the one source of truth): a subscriber on the network
 gets, byte for byte, the CDR messages that a local recording holds.
 
-The transports' libraries are optional extras (``fingertip[ros]``, ``fingertip[lsl]``);
+The transports' libraries are optional extras (``fingertip[ros]``, ``fingertip[zenoh]``,
+``fingertip[lsl]``);
 :func:`require` turns a missing one into one clear line.
 """
 from __future__ import annotations
@@ -12,7 +13,7 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-EXTRAS = {"cyclonedds": "ros", "pylsl": "lsl", "rosbags": "ros"}
+EXTRAS = {"cyclonedds": "ros", "zenoh": "zenoh", "pylsl": "lsl", "rosbags": "ros"}
 """Python module -> the extra of ``fingertip`` that installs it."""
 
 

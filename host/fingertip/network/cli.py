@@ -1,4 +1,4 @@
-"""``fingertip publish`` and ``fingertip record --from dds|lsl``: the command-line side
+"""``fingertip publish`` and ``fingertip record --from dds|zenoh|lsl``: the command-line side
 of the network transports. Handlers return 0 done, 2 a user error (one clear line)."""
 from __future__ import annotations
 
@@ -18,9 +18,8 @@ from . import ExtraMissing, require
 
 log = logging.getLogger("fingertip")
 
-# Zenoh (rmw_zenoh) is not done yet: see docs/ros2.md.
-TRANSPORTS = ("dds", "lsl")
-SOURCE_MODULES = {"dds": "cyclonedds", "lsl": "pylsl"}
+TRANSPORTS = ("dds", "zenoh", "lsl")
+SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
 
 
 def load_force_model(spec: str):
@@ -53,6 +52,10 @@ def make_transport(kind: str, args: argparse.Namespace):
         from .dds import DdsTransport
 
         return DdsTransport()
+    if kind == "zenoh":
+        from .zenoh import ZenohTransport
+
+        return ZenohTransport(args.zenoh_connect, args.zenoh_listen)
     from .lsl import LslTransport
 
     return LslTransport()
@@ -158,10 +161,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             return 2
         feed = Feed(transport, timebase=rec.timebase if rec is not None else None)
         stack.callback(feed.close)
-        for src, name in zip(sources, names, strict=True):
-            feed.attach(src, name, force_model)
-            if rec is not None:
-                rec.attach(src, name, force_model=force_model)
+        for name in names:  # publishers first, so that subscribers can find them
+            feed.add_fingertip(name, force_model)
         _serve_services(args, transport, feed, rec, sources, names)
         if audio is not None and hasattr(transport, "declare_audio"):
             from ..record.schemas import AUDIO_ENCODINGS
@@ -169,6 +170,10 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             transport.declare_audio(names[0], audio.sample_rate, audio.channels,
                                     AUDIO_ENCODINGS[audio.dtype.name])
         _wait_subscribers(args, transport)
+        for src, name in zip(sources, names, strict=True):
+            feed.attach(src, name, force_model)
+            if rec is not None:
+                rec.attach(src, name, force_model=force_model)
         try:
             for src, name in zip(sources, names, strict=True):
                 if args.tare and hasattr(src, "tare"):
@@ -260,11 +265,12 @@ def _summary(feed, transport) -> None:
 # --- record --from ----------------------------------------------------------------------------
 
 def record_from(args: argparse.Namespace) -> int:
-    """``fingertip record --from dds|lsl``: what is published, into one MCAP file."""
+    """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
     from ..record.recorder import Recorder, RecorderError
     from ..record.schemas import check_name
     from .receive import NetworkRecorder
 
+    stopper = _Stopper(args.duration)  # a SIGTERM while starting still ends cleanly
     try:
         require(SOURCE_MODULES[args.from_net], f"record --from {args.from_net}")
     except ExtraMissing as e:
@@ -280,14 +286,14 @@ def record_from(args: argparse.Namespace) -> int:
         return 2
     try:
         try:
-            sink = NetworkRecorder(rec, args.from_net, names)
+            sink = NetworkRecorder(rec, args.from_net, names, connect=args.zenoh_connect,
+                                   listen=args.zenoh_listen)
         except Exception as e:  # a missing extra, DDS or Zenoh that cannot start
             log.error("%s", e)
             return 2
         print(f"recording {', '.join(names)} from {args.from_net} to {args.output}"
               + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
               file=sys.stderr, flush=True)
-        stopper = _Stopper(args.duration)
         while stopper.wait() and not rec.failed:
             pass
         sink.close()
@@ -304,6 +310,14 @@ def record_from(args: argparse.Namespace) -> int:
 
 # --- parser -----------------------------------------------------------------------------------
 
+def add_zenoh_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--zenoh-connect", action="append", metavar="ENDPOINT",
+                   help="Zenoh: a router (or peer) to connect to, e.g. tcp/192.168.1.2:7447 "
+                        "(repeatable)")
+    p.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
+                   help="Zenoh: listen for peers here, e.g. tcp/127.0.0.1:7448 (repeatable)")
+
+
 def add_parsers(sub) -> None:
     p = sub.add_parser("publish", help="publish fingertips live: ROS 2 (DDS, Zenoh) or LSL",
                        description=_cmd_publish.__doc__)
@@ -316,7 +330,9 @@ def add_parsers(sub) -> None:
     g.add_argument("--virtual", type=number(int, 1, 16), metavar="N",
                    help="N virtual fingertips (no hardware)")
     p.add_argument("--transport", choices=TRANSPORTS, default="dds",
-                   help="dds (ROS 2, default) or lsl (Lab Streaming Layer)")
+                   help="dds (ROS 2, default), zenoh (ROS 2 with rmw_zenoh) or lsl (Lab "
+                        "Streaming Layer)")
+    add_zenoh_args(p)
     p.add_argument("--name", help="comma-separated names, one per fingertip, for topics "
                    "/fingertip/NAME/... (default: fingertip, or finger0, finger1...)")
     p.add_argument("--force-model", metavar="MODEL.onnx|MODULE:FUNCTION",

@@ -75,7 +75,9 @@ class Feed:
     def attach(self, fingertip: Any, name: str, force_model: ForceModel | None = None) -> None:
         """Publish every frame of ``fingertip`` (a Fingertip, a Replay: any frame source
         with callbacks), its info now, and forces if a model is given."""
-        self.add_fingertip(name, force_model)
+        if name not in self._models:  # not declared beforehand with add_fingertip
+            self.add_fingertip(name, force_model)
+        self._models[name] = force_model
         self.info(name, device_info(fingertip, name))
 
         def on_frame(frame: Frame, _n: str = name) -> None:

@@ -1,6 +1,6 @@
-"""Recording what is published on the network: ``fingertip record --from dds|lsl``.
+"""Recording what is published on the network: ``fingertip record --from dds|zenoh|lsl``.
 
-DDS delivers the publisher's CDR bytes: they are written to the MCAP file as
+DDS and Zenoh deliver the publisher's CDR bytes: they are written to the MCAP file as
 received (``ros2 bag record`` does the same), logged at their header stamp, so the file
 holds what a local recording of the same run holds. LSL carries values, not CDR: its
 samples are re-encoded into the same messages (:mod:`.lsl`).
@@ -32,7 +32,8 @@ def stamp_ns(kind: str, data: bytes) -> int | None:
 class NetworkRecorder:
     """Feed ``recorder`` with the messages of fingertips ``names`` from ``source``."""
 
-    def __init__(self, recorder: Recorder, source: str, names: list[str]) -> None:
+    def __init__(self, recorder: Recorder, source: str, names: list[str], *,
+                 connect: list[str] | None = None, listen: list[str] | None = None) -> None:
         self.recorder = recorder
         self.names = names
         self.bad = 0
@@ -43,12 +44,17 @@ class NetworkRecorder:
 
             self._node = DdsNode()
             subscribe(self._node, names, self.on_message)
+        elif source == "zenoh":
+            from .zenoh import ZenohNode
+
+            self._node = ZenohNode(connect, listen)
+            self._node.subscribe(names, self.on_message)
         elif source == "lsl":
             from .lsl import LslReceiver
 
             self._node = LslReceiver(names, self.on_message)
         else:
-            raise ValueError(f"unknown source {source!r}: dds or lsl")
+            raise ValueError(f"unknown source {source!r}: dds, zenoh or lsl")
 
     def on_message(self, name: str, kind: str, data: bytes) -> None:
         """One message ``data`` (CDR) of ``/fingertip/<name>/<kind>``."""
