@@ -159,7 +159,11 @@ class LslReceiver:
                      lsl.cf_float32: "F32LE"}.get(info.channel_format(), "F32LE")
         first_index = 0
         while not self._stop.is_set():
-            samples, stamps = inlet.pull_chunk(timeout=0.1)
+            if kind == "audio":
+                samples, stamps = inlet.pull_chunk(timeout=0.1)
+            else:  # one at a time: pull_chunk would wait out its timeout, adding latency
+                sample, stamp = inlet.pull_sample(timeout=0.1)
+                samples, stamps = ([sample], [stamp]) if sample is not None else ([], [])
             if not stamps:
                 continue
             if kind == "audio":

@@ -129,11 +129,12 @@ class ZenohNode:
 
     def subscribe(self, names: list[str], on_message: Callable[[str, str, bytes], None],
                   on_attachment: Callable[[str, str, tuple[int, int, bytes]], None] | None
-                  = None) -> None:
+                  = None, kinds: tuple[str, ...] | None = None) -> None:
         """``on_message(name, kind, cdr_bytes)`` for every message of fingertips ``names``."""
         tokens = []
         for name in names:
-            for kind, schema in S.TOPIC_KINDS.items():
+            for kind in kinds or tuple(S.TOPIC_KINDS):
+                schema = S.TOPIC_KINDS[kind]
                 topic = S.topic(name, kind)
                 tokens.append(token(self.domain, self.zid, 0, next(self._ids), "MS", topic,
                                     schema, KIND_QOS[kind]))
