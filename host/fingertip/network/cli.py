@@ -89,7 +89,7 @@ def _open_sources(args, stack: contextlib.ExitStack) -> list[Any]:
         from ..record.replay import Replay
 
         rp = Replay(args.replay, args.name.split(",")[0] if args.name else None,
-                    speed=args.speed)
+                    speed=args.speed, rebase=not args.sim_time)
         stack.enter_context(rp)
         return [rp]
     if args.virtual:
@@ -159,7 +159,13 @@ def _cmd_publish(args: argparse.Namespace) -> int:
         except Exception as e:  # DdsError, ZenohError, LSL: the network could not start
             log.error("%s", e)
             return 2
-        feed = Feed(transport, timebase=rec.timebase if rec is not None else None)
+        timebase = rec.timebase if rec is not None else None
+        if args.sim_time:
+            if not args.replay:
+                log.error("--sim-time goes with --replay (a live device runs on ROS time)")
+                return 2
+            timebase = sources[0].recording.timebase  # the recording's own stamps
+        feed = Feed(transport, timebase=timebase)
         stack.callback(feed.close)
         for name in names:  # publishers first, so that subscribers can find them
             feed.add_fingertip(name, force_model)
@@ -174,6 +180,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             feed.attach(src, name, force_model)
             if rec is not None:
                 rec.attach(src, name, force_model=force_model)
+        if args.replay:
+            _replay_extras(args, sources[0], names[0], feed, transport, force_model)
         try:
             for src, name in zip(sources, names, strict=True):
                 if args.tare and hasattr(src, "tare"):
@@ -184,7 +192,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                                 also=rec.write_audio if rec is not None else None)
             for src, name in zip(sources, names, strict=True):
                 src.start()
-                _event(feed, rec, name, "start")
+                if not args.replay:  # a replay publishes the events it recorded
+                    _event(feed, rec, name, "start")
         except (FingertipError, AudioError) as e:
             log.error("%s", e)
             return 2
@@ -205,13 +214,38 @@ def _cmd_publish(args: argparse.Namespace) -> int:
         for src, name in zip(sources, names, strict=True):
             with contextlib.suppress(FingertipError):
                 src.stop()
-            _event(feed, rec, name, "stop")
+            if not args.replay:
+                _event(feed, rec, name, "stop")
         if audio is not None:
             audio.stop()
         feed.close()
         time.sleep(args.linger)  # reliable messages still in flight reach their readers
         _summary(feed, transport)
     return 0
+
+
+def _replay_extras(args, rp, name: str, feed, transport, force_model) -> None:
+    """A replay also publishes its recorded forces (unless a force model recomputes them),
+    events and audio; with --sim-time, /clock follows the recording's time."""
+    if force_model is None:
+        rp.add_wrench_callback(lambda w: feed.wrench(name, w.host_time, w.force, w.torque))
+    rp.add_event_callback(lambda e: feed.event(name, e.kind, e.value, host_time=e.time,
+                                               detail=e.detail))
+    from ..record.reader import RecordingError
+
+    try:
+        audio = rp.audio()
+    except RecordingError:  # a recording without audio
+        audio = None
+    if audio is not None:
+        feed.pump_audio(audio, name)
+    if args.sim_time:
+        clock = getattr(transport, "publish_clock", None)
+        if clock is None:
+            log.warning("--sim-time: this transport has no /clock; stamps are the "
+                        "recording's")
+        else:
+            rp.add_callback(lambda f: clock(feed.timebase.to_ns(f.host_time)))
 
 
 def _event(feed, rec, name: str, kind: str, value: float = 0.0, detail: str = "") -> None:
@@ -352,6 +386,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--speed", type=number(float, 0, lo_open=True), default=1.0,
                    help="--replay speed (default 1.0)")
     p.add_argument("--seed", type=int, default=0, help="--virtual: which virtual units")
+    p.add_argument("--sim-time", action="store_true",
+                   help="--replay: keep the recording's stamps and publish /clock, for "
+                        "subscribers with use_sim_time")
     p.add_argument("--record", metavar="FILE.mcap",
                    help="also record locally what is published")
     p.add_argument("--force", action="store_true", help="replace --record's file")

@@ -314,6 +314,7 @@ class DdsTransport:
         self._encoders = ENCODERS
         self._writers: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
+        self._clock: Callable[[bytes], None] | None = None
 
     def add_fingertip(self, name: str) -> None:
         S = self._S
@@ -336,6 +337,16 @@ class DdsTransport:
                 return True
             time.sleep(0.05)
         return False
+
+    def publish_clock(self, ns: int) -> None:
+        """``/clock`` (rosgraph_msgs/msg/Clock, rclcpp's clock QoS: best effort, keep last
+        1), for subscribers that run with ``use_sim_time``."""
+        from .ros_types import CLOCK
+
+        if self._clock is None:
+            self._clock = self.node.writer("rt/clock", CLOCK, SENSOR)
+        sec, nsec = divmod(int(ns), 1_000_000_000)
+        self._clock(b"\x00\x01\x00\x00" + struct.pack("<iI", sec, nsec))
 
     def serve_tare(self, name: str, handler: Callable[[], tuple[bool, str]]) -> ServiceStats:
         """``std_srvs/srv/Trigger`` at ``/fingertip/<name>/tare``."""

@@ -29,6 +29,12 @@ SERVICE_DEFS: dict[str, str] = {
                       "string message # informational, e.g. for error messages",
 }
 
+CLOCK = "rosgraph_msgs/msg/Clock"
+OTHER_DEFS: dict[str, str] = {
+    # /clock, for subscribers with use_sim_time while a recording is replayed.
+    CLOCK: "builtin_interfaces/Time clock",
+}
+
 _PRIMITIVES = ("bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
                "int64", "uint64", "float32", "float64", "string")
 
@@ -72,6 +78,7 @@ def definitions() -> dict[str, str]:
                 raise ValueError(f"bad section in schema {top}: {head!r}")
             defs[full_name(head[5:].strip())] = body.rstrip("\n")
     defs.update(SERVICE_DEFS)
+    defs.update(OTHER_DEFS)
     return defs
 
 
