@@ -136,8 +136,14 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..transport import DeviceNotFound, TransportError
     from .feed import Feed
 
+    if (args.material_model or args.shake_model) and not (
+            args.audio or args.audio_file or args.virtual_audio):
+        log.error("--material-model and --shake-model classify the microphone: add --audio, "
+                  "--audio-file or --virtual-audio")
+        return 2
     try:
         force_model = load_force_model(args.force_model) if args.force_model else None
+        classifiers = _load_classifiers(args)
     except (ValueError, OSError) as e:
         log.error("%s", e)
         return 2
@@ -188,8 +194,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                     offsets = src.tare(samples=args.tare)
                     _event(feed, rec, name, "tare", float(args.tare), json.dumps(list(offsets)))
             if audio is not None:
-                feed.pump_audio(audio, names[0],
-                                also=rec.write_audio if rec is not None else None)
+                feed.pump_audio(audio, names[0], also=_audio_consumers(
+                    feed, rec, names[0], classifiers, audio.sample_rate))
             for src, name in zip(sources, names, strict=True):
                 src.start()
                 if not args.replay:  # a replay publishes the events it recorded
@@ -246,6 +252,50 @@ def _replay_extras(args, rp, name: str, feed, transport, force_model) -> None:
                         "recording's")
         else:
             rp.add_callback(lambda f: clock(feed.timebase.to_ns(f.host_time)))
+
+
+def _load_classifiers(args) -> list[tuple[str, Any]]:
+    """``(kind, VibrationClassifier)`` for --material-model and --shake-model."""
+    out = []
+    for kind, path in (("material", args.material_model), ("shake", args.shake_model)):
+        if path:
+            from ..models.classify import VibrationClassifier
+
+            out.append((kind, VibrationClassifier(path, kind=kind)))
+    return out
+
+
+def _audio_consumers(feed, rec, name: str, classifiers, sample_rate: float):
+    """What else each audio chunk feeds: the local recording, the classifiers (whose
+    predictions are published as ``material`` / ``shake`` events)."""
+    from ..models.classify import to_float
+
+    lives = [(kind, clf.live(sample_rate)) for kind, clf in classifiers]
+    if rec is None and not lives:
+        return None
+
+    def consume(_name: str, chunk) -> None:
+        if rec is not None:
+            rec.write_audio(_name, chunk)
+        if not lives:
+            return
+        x = to_float(chunk.samples[:, 0])
+        for kind, live in lives:
+            for p in live.feed(x, chunk.first_index, chunk):
+                _prediction_event(feed, rec, name, kind, p)
+    return consume
+
+
+def _prediction_event(feed, rec, name: str, kind: str, p) -> None:
+    """A classifier's prediction: value = its probability, detail = the prediction (JSON)."""
+    detail = json.dumps(p.to_dict())
+    t = p.host_time if p.host_time is not None else time.monotonic()
+    if kind == "shake":
+        feed.event(name, "shake", p.probability, host_time=t, detail=detail)
+    else:
+        feed.event(name, "material", p.probability, host_time=t, detail=detail)
+    if rec is not None:
+        rec.write_event(name, kind, p.probability, host_time=t, detail=detail)
 
 
 def _event(feed, rec, name: str, kind: str, value: float = 0.0, detail: str = "") -> None:
@@ -371,6 +421,11 @@ def add_parsers(sub) -> None:
                    "/fingertip/NAME/... (default: fingertip, or finger0, finger1...)")
     p.add_argument("--force-model", metavar="MODEL.onnx|MODULE:FUNCTION",
                    help="forces published as geometry_msgs/WrenchStamped on .../wrench")
+    p.add_argument("--material-model", metavar="MODEL.onnx",
+                   help="classify the microphone's audio (`fingertip classify train "
+                        "material`): predictions as `material` events")
+    p.add_argument("--shake-model", metavar="MODEL.onnx",
+                   help="the same with a shake model: `shake` events")
     a = p.add_mutually_exclusive_group()
     a.add_argument("--audio", metavar="DEVICE", help="the sound card of the (first) fingertip")
     a.add_argument("--audio-file", metavar="WAV", help="a WAV file as the microphone")
