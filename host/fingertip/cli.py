@@ -17,6 +17,7 @@ from .flash import FlashError, flash
 from .sim.faults import FAULTS
 from .check import cli as check_cli
 from .models import calibration_cli, classifier_cli
+from .network import cli as network_cli
 from .record import cli as record_cli
 from .tasks import cli as tasks_cli
 from .protocol import (
@@ -430,6 +431,7 @@ def build_parser() -> argparse.ArgumentParser:
     check_cli.add_parsers(sub)
     classifier_cli.add_parsers(sub)
     tasks_cli.add_parsers(sub)
+    network_cli.add_parsers(sub)
     return p
 
 

@@ -615,6 +615,14 @@ class VibrationClassifier:
         return Classification(self._predictions(w, probs, run=run), self.classes,
                               self.unknown_below)
 
+    def live(self, sample_rate: float, what: str = "the audio source") -> _LiveWindows:
+        """A windower for audio that arrives chunk by chunk (when the chunks also go
+        elsewhere, e.g. onto the network): ``live.feed(x, first_index, chunk)`` yields the
+        predictions each chunk completes (``x``: one channel as floats in [-1, 1])."""
+        rate = float(sample_rate)
+        self.cfg.check_supports(rate, what)
+        return _LiveWindows(self, rate)
+
     def stream(self, source, *, duration: float | None = None, channel: int = 0,
                stop: Callable[[], bool] | None = None) -> Iterator[Prediction]:
         """Predictions from a live :class:`~fingertip.audio.AudioSource` (started here if it
@@ -624,10 +632,14 @@ class VibrationClassifier:
         ``host_time`` is the host time of the window's last frame. ``duration`` (seconds of
         audio) or ``stop()`` ends it; so does the end of a file or a simulation.
         """
+        live = self.live(source.sample_rate, getattr(source, "name", "the audio source"))
         rate = float(source.sample_rate)
+<<<<<<< HEAD
         self.cfg.check_supports(rate, getattr(source, "name", "the audio source"))
         live = _LiveGrowing(self, rate) if self.spec.input == "growing" \
             else _LiveWindows(self, rate)
+=======
+>>>>>>> i16
         if not (source.running or source.finished):
             source.start()
         limit = None if duration is None else int(round(duration * rate))
@@ -639,7 +651,7 @@ class VibrationClassifier:
                 if source.finished:
                     return
                 continue
-            x = _to_float(chunk.samples[:, channel])
+            x = to_float(chunk.samples[:, channel])
             first = chunk.first_index
             if limit is not None:
                 x = x[:max(0, limit - first)]
@@ -648,7 +660,8 @@ class VibrationClassifier:
                 return
 
 
-def _to_float(x: np.ndarray) -> np.ndarray:
+def to_float(x: np.ndarray) -> np.ndarray:
+    """int16, int32 or float samples -> float64 in [-1, 1]."""
     if x.dtype == np.int16:
         return x.astype(np.float64) / 32768.0
     if x.dtype == np.int32:

@@ -54,6 +54,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from .schemas import check_name
 
     out = Path(args.output)
+    if args.from_net:
+        from ..network.cli import record_from
+
+        return record_from(args)
     try:
         check_name(args.name)
         onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
@@ -281,8 +285,14 @@ def add_parsers(sub) -> None:
     g = r.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
     g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
+    g.add_argument("--from", dest="from_net", choices=("dds", "zenoh", "lsl"),
+                   help="record what `fingertip publish` sends on the network (--name: "
+                        "comma-separated fingertips)")
     r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
                    help="the recording to write")
+    from ..network.cli import add_zenoh_args
+
+    add_zenoh_args(r)
     r.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",
                    help="stop after S seconds (default: at Ctrl-C)")
     a = r.add_mutually_exclusive_group()

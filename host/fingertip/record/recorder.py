@@ -373,14 +373,7 @@ class Recorder:
                 name = S.check_name(fingertip.name)
             except ValueError:
                 name = "fingertip"
-        info: dict[str, Any] = {"name": name, "port": fingertip.port,
-                                "serial_number": fingertip.serial_number}
-        try:
-            info["info"] = message_to_dict(fingertip.info)
-        except Exception:  # not open yet: no INFO to record
-            pass
-        info["settings"] = asdict(fingertip.settings)
-        self.add_device(name, info=info, force_model=force_model)
+        self.add_device(name, info=device_info(fingertip, name), force_model=force_model)
         dev = self._devices[name]
         dev.fingertip = fingertip
         dev.callback = lambda frame, _n=name: self.write_frame(_n, frame)
@@ -471,26 +464,24 @@ class Recorder:
         """Queue forces (N) and torques (N m) of fingertip ``name`` at monotonic
         ``host_time`` (for forces from your own model; see ``force_model`` otherwise)."""
         return self._put(S.topic(name, "wrench"),
-                         ("wrench", name, host_time, _xyz(force), _xyz(torque)))
+                         ("wrench", name, host_time, xyz(force), xyz(torque)))
 
     def write_audio(self, name: str, chunk: Chunk) -> bool:
         """Queue an audio chunk of fingertip ``name`` (its samples are copied now)."""
         topic_name = S.topic(name, "audio")
-        samples = np.asarray(chunk.samples)
-        dt = samples.dtype.name
-        if dt not in S.AUDIO_ENCODINGS:
+        payload = audio_payload(chunk.samples)
+        if payload is None:
             self._count_drop(topic_name)
             self._tell_once(f"audio-dtype-{name}", "audio %s: dtype %s cannot be recorded "
-                            "(int16, int32 or float32)", name, dt)
+                            "(int16, int32 or float32)", name, np.asarray(chunk.samples).dtype)
             return False
+        encoding, data = payload
         if name not in self._audio:
             self.add_audio(name, sample_rate=chunk.sample_rate, channels=chunk.channels,
-                           dtype=dt)
-        data = np.ascontiguousarray(samples, dtype=samples.dtype.newbyteorder("<")).tobytes()
+                           dtype=S.AUDIO_DTYPES[encoding])
         return self._put(topic_name, ("audio", name, chunk.host_time, chunk.first_index,
                                       chunk.frames, chunk.channels, chunk.sample_rate,
-                                      chunk.host_rate, chunk.lost_before,
-                                      S.AUDIO_ENCODINGS[dt], data))
+                                      chunk.host_rate, chunk.lost_before, encoding, data))
 
     def write_event(self, name: str, kind: str, value: float = 0.0, *,
                     host_time: float | None = None, detail: str = "") -> bool:
@@ -514,6 +505,12 @@ class Recorder:
         text = info if isinstance(info, str) else json.dumps(info, default=str)
         t = time.monotonic() if host_time is None else host_time
         return self._put(S.topic(name, "info"), ("info", name, t, text))
+
+    def write_encoded(self, name: str, kind: str, log_ns: int, data: bytes) -> bool:
+        """Queue a message already encoded as ROS 2 CDR (e.g. received from the network) on
+        ``/fingertip/<name>/<kind>``, logged at ``log_ns`` (Unix-epoch nanoseconds)."""
+        topic_name = S.topic(S.check_name(name), kind)
+        return self._put(topic_name, ("encoded", name, kind, int(log_ns), bytes(data)))
 
     def flush(self, timeout: float = 5.0) -> bool:
         """Write everything queued so far and close the chunk in progress. True when done."""
@@ -567,7 +564,8 @@ class Recorder:
             if item[0] == "flush":
                 item[1].set()
             else:
-                self._count_drop(S.topic(item[1], item[0] if item[0] != "event" else "events"))
+                kind = {"event": "events", "encoded": item[2]}.get(item[0], item[0])
+                self._count_drop(S.topic(item[1], kind))
         self._close_sink()
 
     def _close_sink(self) -> None:
@@ -653,15 +651,13 @@ class Recorder:
         kind, name = item[0], item[1]
         if kind == "raw":
             f: Frame = item[2]
-            t = f.host_time if math.isfinite(f.host_time) else f.arrival_time
-            ns = tb.to_ns(t)
-            out = [(name, "raw", ns, S.encode_raw(S.RawMsg(
-                ns, name, f.seq & 0xFFFFFFFF, f.device_time_us, tb.to_ns(f.arrival_time),
-                tuple(f.counts), f.timeout_mask, f.saturation_mask)), None)]
+            raw = frame_message(name, f, tb)
+            ns = raw.stamp_ns
+            out = [(name, "raw", ns, S.encode_raw(raw), None)]
             model = self._devices[name].force_model if name in self._devices else None
             if model is not None:
                 try:
-                    force = _xyz(model(f.counts))
+                    force = xyz(model(f.counts))
                 except Exception as e:  # a model failing on one frame must not stop recording
                     with self._lock:
                         self._stats.encode_errors += 1
@@ -690,6 +686,9 @@ class Recorder:
             ns = tb.to_ns(item[2])
             return [(name, "events", ns, S.encode_event(S.EventMsg(ns, name, item[3],
                                                                    item[4], item[5])), None)]
+        if kind == "encoded":
+            stream = self._audio.get(name) if item[2] == "audio" else None
+            return [(name, item[2], item[3], item[4], stream.metadata if stream else None)]
         if kind == "info":
             ns = tb.to_ns(item[2])
             return [(name, "info", ns, S.encode_string(item[3]), None)]
@@ -710,7 +709,40 @@ class Recorder:
         self._close_sink()
 
 
-def _xyz(v: Sequence[float]) -> tuple[float, float, float]:
+def device_info(fingertip: Any, name: str) -> dict[str, Any]:
+    """What ``/fingertip/<name>/info`` says about a fingertip (or any frame source)."""
+    info: dict[str, Any] = {"name": name, "port": getattr(fingertip, "port", ""),
+                            "serial_number": getattr(fingertip, "serial_number", None)}
+    try:
+        info["info"] = message_to_dict(fingertip.info)
+    except Exception:  # not open yet (or a source without INFO): nothing to say
+        pass
+    settings = getattr(fingertip, "settings", None)
+    if settings is not None:
+        info["settings"] = asdict(settings)
+    return info
+
+
+def frame_message(name: str, f: Frame, tb: TimeBase) -> S.RawMsg:
+    """A frame as recordings (and the network publishers) carry it: stamped with its
+    clock-fitted host time (its arrival time when the fit has none yet)."""
+    t = f.host_time if math.isfinite(f.host_time) else f.arrival_time
+    return S.RawMsg(tb.to_ns(t), name, f.seq & 0xFFFFFFFF, f.device_time_us,
+                    tb.to_ns(f.arrival_time), tuple(f.counts), f.timeout_mask,
+                    f.saturation_mask)
+
+
+def audio_payload(samples: Any) -> tuple[str, bytes] | None:
+    """Audio samples -> ``(encoding, interleaved little-endian bytes)``, or None when their
+    dtype cannot be carried (not int16, int32 or float32)."""
+    a = np.asarray(samples)
+    enc = S.AUDIO_ENCODINGS.get(a.dtype.name)
+    if enc is None:
+        return None
+    return enc, np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("<")).tobytes()
+
+
+def xyz(v: Sequence[float]) -> tuple[float, float, float]:
     vals = [float(x) for x in v]
     if not 2 <= len(vals) <= 3:
         raise ValueError(f"expected (x, y) or (x, y, z), got {len(vals)} values")

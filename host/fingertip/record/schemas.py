@@ -74,7 +74,7 @@ EVENT_DEF = """\
 # tare, a reconnect, a user marker.
 # header.stamp: when it happened; header.frame_id: the fingertip's name
 std_msgs/Header header
-string kind             # contact, release, rim, edge, tare, reconnect, marker, start, stop...
+string kind             # contact_make, contact_break, vibration_onset, tare, start, stop...
 float64 value           # its magnitude (newtons, counts, a score...); 0 when it has none
 string detail           # free text or JSON; may be empty"""
 

@@ -1,0 +1,182 @@
+"""``Feed``: a fingertip's frames, forces, audio and events, as the messages a recording
+holds, handed to a network transport the moment they exist.
+
+The messages are built by the recorder's own functions (:func:`frame_message`,
+:func:`audio_payload`, :mod:`fingertip.record.schemas`), so a subscriber receives what a
+local recording of the same run stores. Frames are published on the fingertip's reader
+thread (no queue: the latency is the transport's), audio on a pump thread per stream.
+A transport failing on one message is counted, never raised into the device's thread.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable, Sequence
+from typing import Any, Protocol
+
+from ..audio import AudioSource, Chunk
+from ..device import Frame
+from ..record import schemas as S
+from ..record.recorder import audio_payload, device_info, frame_message, xyz
+from ..record.timebase import TimeBase
+
+log = logging.getLogger(__name__)
+
+ForceModel = Callable[[Sequence[int]], Sequence[float]]
+
+
+class Transport(Protocol):
+    """Where a feed's messages go (DDS, Zenoh, LSL...)."""
+
+    def add_fingertip(self, name: str) -> None:
+        """Declare fingertip ``name`` (its publishers are made here)."""
+
+    def publish(self, name: str, kind: str, msg: Any) -> None:
+        """Publish ``msg`` (a :mod:`~fingertip.record.schemas` message object, or the info
+        text) on ``/fingertip/<name>/<kind>``."""
+
+    def close(self) -> None: ...
+
+
+ENCODERS: dict[str, Callable[[Any], bytes]] = {
+    "raw": S.encode_raw, "wrench": S.encode_wrench, "audio": S.encode_audio,
+    "events": S.encode_event, "info": S.encode_string,
+}
+"""Topic kind -> the recorder's CDR encoder of its message object."""
+
+
+class Feed:
+    """Publish fingertips through ``transport``; ``timebase`` maps host monotonic time to
+    the Unix-epoch stamps (default: measured now, as a recorder does)."""
+
+    def __init__(self, transport: Transport, timebase: TimeBase | None = None) -> None:
+        self.transport = transport
+        self.timebase = timebase or TimeBase.measure()
+        if hasattr(transport, "timebase"):  # LSL stamps: the same clock mapping as ours
+            transport.timebase = self.timebase
+        self.published: Counter[str] = Counter()
+        self.errors: Counter[str] = Counter()
+        self._models: dict[str, ForceModel | None] = {}
+        self._detach: list[Callable[[], None]] = []
+        self._pumps: list[threading.Thread] = []
+        self._stop = threading.Event()
+        self._told: set[str] = set()
+
+    def add_fingertip(self, name: str, force_model: ForceModel | None = None) -> None:
+        S.check_name(name)
+        if name in self._models:
+            raise ValueError(f"a fingertip named {name!r} is already published")
+        self._models[name] = force_model
+        self.transport.add_fingertip(name)
+
+    def attach(self, fingertip: Any, name: str, force_model: ForceModel | None = None) -> None:
+        """Publish every frame of ``fingertip`` (a Fingertip, a Replay: any frame source
+        with callbacks), its info now, and forces if a model is given."""
+        if name not in self._models:  # not declared beforehand with add_fingertip
+            self.add_fingertip(name, force_model)
+        self._models[name] = force_model
+        self.info(name, device_info(fingertip, name))
+
+        def on_frame(frame: Frame, _n: str = name) -> None:
+            self.frame(_n, frame)
+        fingertip.add_callback(on_frame)
+        self._detach.append(lambda: fingertip.remove_callback(on_frame))
+
+    # --- messages ----------------------------------------------------------------------------
+
+    def _send(self, name: str, kind: str, msg: Any) -> None:
+        try:
+            self.transport.publish(name, kind, msg)
+        except Exception as e:  # a network hiccup must not reach the device's thread
+            self.errors[kind] += 1
+            self._tell_once(f"{kind}-{name}", "%s %s: publishing failed (%s)", name, kind, e)
+        else:
+            self.published[S.topic(name, kind)] += 1
+
+    def frame(self, name: str, frame: Frame) -> None:
+        raw = frame_message(name, frame, self.timebase)
+        self._send(name, "raw", raw)
+        model = self._models.get(name)
+        if model is None:
+            return
+        try:
+            force = xyz(model(frame.counts))
+        except Exception as e:  # one frame the model cannot take: count it, go on
+            self.errors["force_model"] += 1
+            self._tell_once(f"model-{name}", "%s: force model failed (%s)", name, e)
+            return
+        self._send(name, "wrench", S.WrenchMsg(raw.stamp_ns, name, force))
+
+    def wrench(self, name: str, host_time: float, force: Sequence[float],
+               torque: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
+        self._send(name, "wrench", S.WrenchMsg(self.timebase.to_ns(host_time), name,
+                                               xyz(force), xyz(torque)))
+
+    def audio(self, name: str, chunk: Chunk) -> None:
+        payload = audio_payload(chunk.samples)
+        if payload is None:
+            self.errors["audio"] += 1
+            self._tell_once(f"audio-{name}", "%s: audio of this dtype cannot be published", name)
+            return
+        encoding, data = payload
+        self._send(name, "audio", S.AudioMsg(
+            self.timebase.to_ns(chunk.host_time), name, chunk.first_index, chunk.frames,
+            chunk.channels, float(chunk.sample_rate), float(chunk.host_rate),
+            chunk.lost_before, encoding, data))
+
+    def event(self, name: str, kind: str, value: float = 0.0, *,
+              host_time: float | None = None, detail: str = "") -> None:
+        t = time.monotonic() if host_time is None else host_time
+        self._send(name, "events", S.EventMsg(self.timebase.to_ns(t), name, str(kind),
+                                              float(value), str(detail)))
+
+    def info(self, name: str, info: Any) -> None:
+        self._send(name, "info", info if isinstance(info, str) else json.dumps(info, default=str))
+
+    def pump_audio(self, source: AudioSource, name: str, max_seconds: float = 0.1,
+                   also: Callable[[str, Chunk], Any] | None = None) -> threading.Thread:
+        """Read ``source`` on a thread and publish its chunks until :meth:`close` (and hand
+        each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``)."""
+        if not source.running and not source.finished:
+            source.start()
+        max_frames = max(1, int(source.sample_rate * max_seconds))
+
+        def pump() -> None:
+            try:
+                while not self._stop.is_set():
+                    chunk = source.read(max_frames, timeout=0.05)
+                    if chunk is None:
+                        if source.finished:
+                            break
+                        continue
+                    self.audio(name, chunk)
+                    if also is not None:
+                        also(name, chunk)
+            except Exception as e:  # a broken sound card is an event, not a dead publisher
+                log.error("audio %s: %s", name, e)
+                self.event(name, "audio_error", detail=str(e))
+
+        t = threading.Thread(target=pump, daemon=True, name=f"feed-audio-{name}")
+        self._pumps.append(t)
+        t.start()
+        return t
+
+    def close(self) -> None:
+        """Stop the pumps, detach from the sources; the transport is the caller's."""
+        for d in self._detach:
+            try:
+                d()
+            except ValueError:
+                pass
+        self._detach.clear()
+        self._stop.set()
+        for t in self._pumps:
+            t.join(timeout=1.0)
+
+    def _tell_once(self, key: str, msg: str, *args: Any) -> None:
+        if key not in self._told:
+            self._told.add(key)
+            log.warning(msg, *args)

@@ -1,0 +1,146 @@
+"""ROS 2 type names, type hashes and DDS type descriptions, derived from the recorder's
+message definitions (:data:`fingertip.record.schemas.SCHEMAS`): nothing is written twice.
+
+- :func:`dds_type_name`: ``geometry_msgs/msg/WrenchStamped`` ->
+  ``geometry_msgs::msg::dds_::WrenchStamped_`` (how every ROS 2 rmw names DDS types);
+- :func:`type_hash`: the RIHS01 hash that Iron and later put in an endpoint's USER_DATA
+  (computed by ``rosbags`` from the same definitions);
+- :func:`idl_struct`: a cyclonedds ``IdlStruct`` with the same members, so the DDS topic
+  carries the right XTypes type information. Payloads are never serialised by it: they are
+  the recorder's CDR bytes (the tests check that both agree).
+"""
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+from ..record import schemas as S
+from . import require
+
+TRIGGER = "std_srvs/srv/Trigger"
+TRIGGER_REQUEST = "std_srvs/srv/Trigger_Request"
+TRIGGER_RESPONSE = "std_srvs/srv/Trigger_Response"
+
+# std_srvs/srv/Trigger, as rosidl splits it. An empty request gets the placeholder member
+# that rosidl adds to every empty structure (IDL has no empty structs).
+SERVICE_DEFS: dict[str, str] = {
+    TRIGGER_REQUEST: "uint8 structure_needs_at_least_one_member",
+    TRIGGER_RESPONSE: "bool success # indicate successful run of triggered service\n"
+                      "string message # informational, e.g. for error messages",
+}
+
+CLOCK = "rosgraph_msgs/msg/Clock"
+OTHER_DEFS: dict[str, str] = {
+    # /clock, for subscribers with use_sim_time while a recording is replayed.
+    CLOCK: "builtin_interfaces/Time clock",
+}
+
+_PRIMITIVES = ("bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
+               "int64", "uint64", "float32", "float64", "string")
+
+
+def full_name(ref: str) -> str:
+    """``std_msgs/Header`` -> ``std_msgs/msg/Header`` (names in .msg files omit ``msg``)."""
+    parts = ref.split("/")
+    if len(parts) == 2:
+        return f"{parts[0]}/msg/{parts[1]}"
+    return ref
+
+
+def dds_type_name(name: str) -> str:
+    """``pkg/msg/Type`` -> ``pkg::msg::dds_::Type_`` (``srv`` types likewise)."""
+    pkg, kind, typ = full_name(name).split("/")
+    return f"{pkg}::{kind}::dds_::{typ}_"
+
+
+def _fields(text: str) -> list[tuple[str, str]]:
+    """``(type, name)`` of each field of one .msg definition (comments and constants out)."""
+    out = []
+    for line in text.splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line or "=" in line:
+            continue
+        ftype, fname = line.split()[:2]
+        out.append((ftype, fname))
+    return out
+
+
+@functools.cache
+def definitions() -> dict[str, str]:
+    """Every type we publish or use -> its own .msg text (dependencies split apart)."""
+    defs: dict[str, str] = {}
+    for top, text in S.SCHEMAS.items():
+        sections = text.split(S.SEP + "\n")
+        defs[top] = sections[0].rstrip("\n")
+        for sec in sections[1:]:
+            head, _, body = sec.partition("\n")
+            if not head.startswith("MSG: "):
+                raise ValueError(f"bad section in schema {top}: {head!r}")
+            defs[full_name(head[5:].strip())] = body.rstrip("\n")
+    defs.update(SERVICE_DEFS)
+    defs.update(OTHER_DEFS)
+    return defs
+
+
+def fields(name: str) -> list[tuple[str, str]]:
+    """Fields of type ``name`` as ``(full type or primitive[], field name)``."""
+    out = []
+    for ftype, fname in _fields(definitions()[full_name(name)]):
+        seq = ftype.endswith("[]")
+        base = ftype[:-2] if seq else ftype
+        if base == "builtin_interfaces/Time" or "/" in base:
+            base = full_name(base)
+        elif base not in _PRIMITIVES:
+            raise ValueError(f"{name}.{fname}: unsupported field type {ftype!r}")
+        out.append((base + ("[]" if seq else ""), fname))
+    return out
+
+
+@functools.cache
+def _typestore():
+    typesys = require("rosbags.typesys", "computing ROS 2 type hashes")
+    store = typesys.get_typestore(typesys.Stores.EMPTY)
+    types: dict[str, Any] = {}
+    for name, text in definitions().items():
+        if name == "builtin_interfaces/msg/Time" or "/srv/" in name:
+            continue  # rosbags knows Time; service parts are hashed as a service by rmw
+        types.update(typesys.get_types_from_msg(text, name))
+    store.register(types)
+    return store
+
+
+@functools.cache
+def type_hash(name: str) -> str:
+    """``RIHS01_<64 hex digits>`` of message type ``name``."""
+    return _typestore().hash_rihs01(full_name(name))
+
+
+def user_data(name: str) -> bytes:
+    """USER_DATA of a reader or writer of ``name``, as rmw implementations since Iron write
+    it (``typehash=RIHS01_...;``)."""
+    return f"typehash={type_hash(name)};".encode()
+
+
+@functools.cache
+def idl_struct(name: str) -> type:
+    """A cyclonedds ``IdlStruct`` class mirroring ROS 2 type ``name``."""
+    idl = require("cyclonedds.idl", "ROS 2 over DDS")
+    from cyclonedds.idl import types as T
+
+    prim = {"bool": bool, "byte": T.uint8, "char": T.uint8, "int8": T.int8, "uint8": T.uint8,
+            "int16": T.int16, "uint16": T.uint16, "int32": T.int32, "uint32": T.uint32,
+            "int64": T.int64, "uint64": T.uint64, "float32": T.float32,
+            "float64": T.float64, "string": str}
+    members: dict[str, Any] = {}
+    if "/srv/" in full_name(name):
+        # Service samples carry rmw_cyclonedds' request id ahead of the members
+        # (cdds_request_header_t); Cyclone checks payloads against the type, so it is part
+        # of the DDS type here.
+        members.update(guid=T.uint64, seq=T.int64)
+    for ftype, fname in fields(name):
+        seq = ftype.endswith("[]")
+        base = ftype[:-2] if seq else ftype
+        t = prim[base] if base in prim else idl_struct(base)
+        members[fname] = T.sequence[t] if seq else t
+    cls_name = full_name(name).split("/")[-1] + "_"
+    return idl.make_idl_struct(cls_name, dds_type_name(name), members)

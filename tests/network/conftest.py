@@ -1,0 +1,37 @@
+"""Processes on loopback: discovery kept on this machine (no multicast needed)."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(autouse=True)
+def localhost_only(monkeypatch):
+    """ROS 2's own switch: every participant of these tests stays on the loopback interface
+    (and a test domain of its own, away from anything else on this machine)."""
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
+    monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(17 + os.getpid() % 200))
+
+
+def env() -> dict[str, str]:
+    e = dict(os.environ)
+    # The test suite's force model (tests.record.conftest.force_model) must be importable.
+    e["PYTHONPATH"] = os.pathsep.join([str(ROOT), e.get("PYTHONPATH", "")])
+    return e
+
+
+def cli(*args: str) -> list[str]:
+    return [sys.executable, "-m", "fingertip.cli", *args]
+
+
+def start(*args: str) -> subprocess.Popen:
+    return subprocess.Popen(cli(*args), env=env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)

@@ -1,0 +1,33 @@
+"""A hand of two virtual fingertips published over DDS; the wrench of one of them read as a
+reference force sensor (`WrenchReference`, what `calibrate` can take as its reference)."""
+from __future__ import annotations
+
+import pytest
+
+from fingertip.network.reference import WrenchReference
+
+from .conftest import start
+from .test_dds_stream import FORCE_MODEL
+
+
+def test_a_hand_of_two_and_a_wrench_reference():
+    with WrenchReference("/fingertip/thumb/wrench") as ref:
+        pub = start("publish", "--virtual", "2", "--name", "index,thumb", "--force-model",
+                    FORCE_MODEL, "--duration", "3")
+        try:
+            got = []
+            while len(got) < 80 and (m := ref.get(timeout=20.0)) is not None:
+                got.append(m)
+        finally:
+            _, err = pub.communicate(timeout=60)
+        assert pub.returncode == 0, err
+        assert "/fingertip/index/raw" in err and "/fingertip/thumb/raw" in err
+    assert len(got) == 80 and {m.frame_id for m in got} == {"thumb"}
+    stamps = [m.stamp_ns for m in got]
+    assert stamps == sorted(stamps) and ref.bad == 0
+    assert all(m.torque == (0.0, 0.0, 0.0) and m.force[2] == 0.0 for m in got)
+
+
+def test_reference_topic_must_be_absolute():
+    with pytest.raises(ValueError, match="must start with"):
+        WrenchReference("ft_sensor/wrench")
