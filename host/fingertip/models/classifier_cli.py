@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from ..argtypes import number
+from ..badfile import FILE_ERRORS, reports_bad_files
 log = logging.getLogger("fingertip")
 
 
@@ -34,8 +35,7 @@ def _user_errors():
     from ..audio import AudioError
     from .classify import DatasetError, ModelError
     from .features import FeatureError
-    return (DatasetError, ModelError, FeatureError, AudioError, FileNotFoundError,
-            LookupError)
+    return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
 def _print_evaluation(ev, indent: str = "  ") -> None:
@@ -69,6 +69,7 @@ def _split_line(split: dict) -> str:
             f"(no recording on both sides; per class in report.json)")
 
 
+@reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
     recordings, any rate from 1 to 384 kHz): 0.5 s windows, gain-free log band spectra,
@@ -99,6 +100,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_bad_files
 def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
@@ -160,6 +162,7 @@ def _simulated_source(name: str, kind: str, duration: float | None, realtime: bo
                            name=f"simulated {scene.name}({name})")
 
 
+@reports_bad_files
 def _cmd_classify(args: argparse.Namespace) -> int:
     """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
     paired with a fingertip's serial port, or the virtual fingertip) with a model made by

@@ -28,6 +28,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..badfile import BadFileError
 from .onnx_io import open_session
 
 INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
@@ -111,12 +112,17 @@ class ForceModel:
         m = self.metadata
         shape_c = inp.shape[-1] if isinstance(inp.shape[-1], int) else None
         self.channels = int(m.get("channels", shape_c or 4))
+        kind = m.get("fingertip_model", "force")
+        if kind != "force" or str(m.get("format", "")).startswith("fingertip-vibration"):
+            raise BadFileError(f"{path} is not a force model (it is a "
+                               f"{m.get('kind') or kind or 'different'} model)", path)
         if shape_c is not None and shape_c != self.channels:
-            raise ValueError(f"{path}: metadata says {self.channels} channels, the graph "
-                             f"takes {shape_c}")
+            raise BadFileError(f"{path}: metadata says {self.channels} channels, the graph "
+                               f"takes {shape_c}", path)
         out_c = self._session.get_outputs()[0].shape[-1]
         if isinstance(out_c, int) and out_c != 2:
-            raise ValueError(f"{path} outputs {out_c} values, not (Fx, Fy)")
+            raise BadFileError(f"{path} outputs {out_c} values, not (Fx, Fy): not a force "
+                               f"model", path)
         self.units = str(m.get("units", "N"))
         self.kind = str(m.get("model", m.get("kind", "unknown")))
         self.rmse_n = float(m["heldout_rmse_n"]) if "heldout_rmse_n" in m else None

@@ -19,14 +19,21 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..argtypes import dispatch, number
+from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 
 def load_force_model(spec: str):
-    """``package.module:function`` -> the callable (counts -> (fx, fy[, fz]))."""
+    """``FILE.onnx`` (made by `fingertip calibrate fit`) or ``package.module:function`` ->
+    the callable (counts -> (fx, fy[, fz]))."""
+    if spec.lower().endswith(".onnx"):
+        from ..models.force import ForceModel
+
+        return ForceModel(spec)  # a bad file raises BadFileError (a ValueError)
     mod_name, sep, attr = spec.partition(":")
     if not sep or not mod_name or not attr:
-        raise ValueError(f"--force-model must look like package.module:function, not {spec!r}")
+        raise ValueError(f"--force-model must be a FILE.onnx or look like "
+                         f"package.module:function, not {spec!r}")
     try:
         mod = importlib.import_module(mod_name)
     except ImportError as e:
@@ -43,6 +50,7 @@ def load_force_model(spec: str):
 
 # --- record -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_record(args: argparse.Namespace) -> int:
     """Record a fingertip (frames, forces, audio, events) into an MCAP file of ROS 2
     messages, until --duration passes or Ctrl-C."""
@@ -192,6 +200,7 @@ def _record_loop(args, ft, rec, audio, name: str, out: Path) -> int:
 
 # --- replay -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_replay(args: argparse.Namespace) -> int:
     """Play a recording through the same frame interface as a live device and print its
     frames as `fingertip stream` does."""
@@ -235,6 +244,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 # --- export -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_export(args: argparse.Namespace) -> int:
     """Write a recording's frames (CSV per fingertip), audio (WAV per stream) and events
     (CSV) into a folder."""
@@ -288,8 +298,9 @@ def add_parsers(sub) -> None:
                    help="the fingertip's name in topic names /fingertip/NAME/... "
                         "(default: fingertip)")
     r.add_argument("--tare", type=number(int, 1), metavar="N", help="tare with N samples first")
-    r.add_argument("--force-model", metavar="MODULE:FUNCTION",
-                   help="a Python callable counts -> (fx, fy[, fz]) in newtons; its forces "
+    r.add_argument("--force-model", metavar="FILE.onnx|MODULE:FUNCTION",
+                   help="a force model made by `fingertip calibrate fit` (force.onnx), or a "
+                        "Python callable counts -> (fx, fy[, fz]) in newtons; its forces "
                         "are recorded as geometry_msgs/WrenchStamped")
     r.add_argument("--flush-interval", type=number(float, 0, lo_open=True), default=0.5,
                    metavar="S",
