@@ -101,6 +101,10 @@ class ForceModel:
 
     def __init__(self, path: str | Path, *, gain: int | None = None, threads: int = 1,
                  range_margin: float = 0.1) -> None:
+        if gain is not None and gain not in (128, 64, 32):
+            raise ValueError(f"gain must be 128, 64 or 32 (the HX711's), not {gain!r}")
+        if not 0 <= range_margin < float("inf"):
+            raise ValueError(f"range_margin must be a fraction >= 0, not {range_margin!r}")
         self._session = open_session(path, threads, what="force model")
         self.path = Path(path)
         self._local = threading.local()

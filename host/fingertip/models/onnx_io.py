@@ -45,6 +45,8 @@ def open_session(path: str | Path, threads: int = 1, *, what: str = "model file"
     empty, a folder, or not an ONNX graph onnxruntime can load."""
     import onnxruntime as ort
 
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads must be an integer >= 1, not {threads!r}")
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no {what} at {path}")
