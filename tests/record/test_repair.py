@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import json
 import random
-import signal
 import struct
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -20,9 +18,8 @@ from fingertip.record import Recording
 from fingertip.record.repair import repair
 
 from .conftest import RATE
-from .test_crash import read_line
+from .test_crash import FLUSH, record_then_kill
 
-FLUSH = 0.5
 SLACK = 0.3
 """Seconds of delivery and scheduling latency allowed on top of the flush interval (the
 frame's trip through the link and queue, on a machine shared with other test runs)."""
@@ -61,25 +58,8 @@ def test_random_sigkills_then_repair(device, tmp_path, session):
     lost_frames, lost_s_all, cut_inside = [], [], 0
     for k in range(KILLS):
         path = tmp_path / f"killed{k}.mcap"
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "fingertip.record", "record", "--port", str(device.link),
-             "-o", str(path), "--name", "index", "--flush-interval", str(FLUSH),
-             "--audio-file", str(wav), "--force-model", "tests.record.models:linear"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        try:
-            line = read_line(proc.stderr, 20)
-            assert "recording index" in line, line + proc.stderr.read1(10000).decode()
-            time.sleep(rng.uniform(0.5, 3.0))
-            t_kill = time.monotonic()
-            proc.send_signal(signal.SIGKILL)
-            proc.wait(5)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
-            proc.stderr.close()
-        assert proc.returncode == -signal.SIGKILL
-
+        _, t_kill = record_then_kill(device.link, path, rng.uniform(0.5, 3.0), "--audio-file",
+                                     str(wav), "--force-model", "tests.record.models:linear")
         with pytest.raises(Exception):  # noqa: B017 - the ordinary reader fails first
             mcap_messages(path)
         before = [(r.topic, r.log_time) for r in Recording(path).records()]
