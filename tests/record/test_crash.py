@@ -37,12 +37,12 @@ def read_line(stream, timeout: float) -> str:
     return buf.decode(errors="replace")
 
 
-@pytest.mark.parametrize("seconds", [2.0, 2.45])
-def test_sigkill_loses_at_most_the_unflushed_chunk(device, tmp_path, seconds):
-    path = tmp_path / "killed.mcap"
+def record_then_kill(port, path, seconds: float, *extra: str) -> tuple[float, float]:
+    """Run `python -m fingertip.record record` on ``port`` into ``path``, SIGKILL it
+    ``seconds`` after it said it is recording; (time it said so, time of the kill)."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "fingertip.record", "record", "--port", str(device.link),
-         "-o", str(path), "--name", "index", "--flush-interval", str(FLUSH)],
+        [sys.executable, "-m", "fingertip.record", "record", "--port", str(port),
+         "-o", str(path), "--name", "index", "--flush-interval", str(FLUSH), *extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         line = read_line(proc.stderr, 20)
@@ -58,6 +58,13 @@ def test_sigkill_loses_at_most_the_unflushed_chunk(device, tmp_path, seconds):
             proc.wait()
         proc.stderr.close()
     assert proc.returncode == -signal.SIGKILL
+    return t_started, t_kill
+
+
+@pytest.mark.parametrize("seconds", [2.0, 2.45])
+def test_sigkill_loses_at_most_the_unflushed_chunk(device, tmp_path, seconds):
+    path = tmp_path / "killed.mcap"
+    t_started, t_kill = record_then_kill(device.link, path, seconds)
 
     rec = Recording(path)
     assert not rec.complete

@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import itertools
 import logging
+import numbers
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 from ..protocol import (
-    MAX_CHANNELS, Ack, Command, ErrorCode, ForeignInfo, GetInfo, GetStats, Info, Log, Nack,
+    MAX_CHANNELS, MAX_TARE_SAMPLES, VALID_GAINS, VALID_RATES, Ack, Command, ErrorCode,
+    ForeignInfo, GetInfo, GetStats, Info, Log, Nack,
     Ping, ProtocolVersionError, ResetCounters, Sample, SetGain, SetPower, SetRate,
     SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, require_compatible,
 )
@@ -52,6 +54,26 @@ class CommandTimeout(FingertipError, TimeoutError):
 
 class NotConnected(FingertipError):
     """The device is not connected (closed, or reconnecting for longer than the timeout)."""
+
+
+INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
+"""What a tare offset can be: the HX711's 24-bit two's complement range."""
+
+
+def check_int(name: str, value: object, lo: int, hi: int) -> int:
+    """``value`` as an int if it is an integer in lo..hi, else a ValueError (TypeError for
+    a non-integer) that names the allowed range."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer in {lo}..{hi}, not {value!r}")
+    v = int(value)  # type: ignore[arg-type]
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must be in {lo}..{hi}, not {v}")
+    return v
+
+
+def check_tare_samples(samples: object) -> int:
+    """Readings a tare averages: 1..256, or 0 to clear the offsets (the firmware's limit)."""
+    return check_int("tare samples", samples, 0, MAX_TARE_SAMPLES)
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,6 +164,12 @@ class Fingertip(FrameSource):
                  name: str | None = None) -> None:
         if (port is None) == (serial_number is None):
             raise ValueError("give exactly one of port or serial_number")
+        check_int("queue_size", queue_size, 1, 1 << 24)
+        check_int("retries", retries, 0, 100)
+        check_int("baudrate", baudrate, 1, 10_000_000)
+        for what, v in (("command_timeout", command_timeout), ("open_timeout", open_timeout)):
+            if not (isinstance(v, int | float) and 0 < v < float("inf")):
+                raise ValueError(f"{what} must be a positive number of seconds, not {v!r}")
         self._port_arg = port
         self.serial_number = serial_number
         self.baudrate = baudrate
@@ -166,6 +194,8 @@ class Fingertip(FrameSource):
         self._info: Info | None = None
         self._device_stats: Stats | None = None
         self._status = "closed"
+        self._ever_opened = False
+        self._lost_for_good = False
         self._connected = threading.Event()
         self._closing = threading.Event()
         self._reader: threading.Thread | None = None
@@ -182,6 +212,8 @@ class Fingertip(FrameSource):
         self._closing.clear()
         self._connect_once()  # raises TransportError with a clear message
         self._status = "connected"
+        self._ever_opened = True
+        self._lost_for_good = False
         self._reader = threading.Thread(target=self._read_loop, daemon=True,
                                         name=f"fingertip-reader-{self.name}")
         self._reader.start()
@@ -282,14 +314,47 @@ class Fingertip(FrameSource):
 
     # --- frames ---------------------------------------------------------------------------
 
+    def _not_open(self) -> NotConnected:
+        """Why nothing can be read or sent now, as the exception to raise."""
+        if self._lost_for_good:
+            why = "lost its device and reconnect is off: open() it again"
+        elif self._ever_opened:
+            why = "is closed: open() it again to use it"
+        else:
+            why = "was never opened: call open() first (or use `with Fingertip(...)`)"
+        return NotConnected(f"{self.name} {why}")
+
     def read(self, timeout: float | None = None) -> Frame | None:
-        """The next frame, or None after ``timeout`` seconds (or when closed)."""
+        """The next frame, or None after ``timeout`` seconds without one.
+
+        Frames received before a close are still handed out; after them, reading a closed
+        (or never opened) device raises :class:`NotConnected` instead of returning None like
+        a timeout, so that a loop cannot spin on a dead device.
+        """
+        if timeout is not None and not timeout >= 0:
+            raise ValueError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
         with self._cond:
             if not self._queue:
                 if self._status == "closed":
-                    return None
+                    raise self._not_open()
                 self._cond.wait(timeout)
+                if not self._queue and self._status == "closed":
+                    raise self._not_open()
             return self._queue.popleft() if self._queue else None
+
+    def frames(self, timeout: float | None = None) -> Iterator[Frame]:
+        """Iterate over frames until ``timeout`` passes without one; ends (without an
+        error) when the device is closed meanwhile, after the frames it had received."""
+        while True:
+            try:
+                f = self.read(timeout)
+            except NotConnected:
+                if self._ever_opened and not self._lost_for_good:
+                    return
+                raise
+            if f is None:
+                return
+            yield f
 
     def drain(self) -> list[Frame]:
         """All frames queued so far, without waiting."""
@@ -333,10 +398,17 @@ class Fingertip(FrameSource):
 
     def set_rate(self, rate_sps: int, decimation: int = 1) -> None:
         """Tell the device its chips' rate (10 or 80 SPS) and keep every n-th conversion."""
+        if rate_sps not in VALID_RATES:
+            raise ValueError(f"rate must be one of {', '.join(map(str, VALID_RATES))} SPS "
+                             f"(the HX711's RATE pin), not {rate_sps!r}")
+        decimation = check_int("decimation", decimation, 1, 255)
         self._command(SetRate(0, rate_sps, decimation))
         self.settings.rate_sps, self.settings.decimation = rate_sps, decimation
 
     def set_gain(self, gain: int) -> None:
+        if gain not in VALID_GAINS:
+            raise ValueError(f"gain must be one of {', '.join(map(str, VALID_GAINS))}, "
+                             f"not {gain!r}")
         self._command(SetGain(0, gain))
         self.settings.gain = gain
 
@@ -354,17 +426,20 @@ class Fingertip(FrameSource):
         ``channels``: a list of channel numbers, a bit mask, or None for all. Returns the
         offsets now in use. ``samples=0`` clears the offsets of those channels.
         """
+        samples = check_tare_samples(samples)
         n = self.channels
         if channels is None:
             mask = (1 << n) - 1
         elif isinstance(channels, int):
-            mask = channels
+            mask = check_int("tare channel mask", channels, 1, 0xFFFF)  # the device judges
         else:
             mask = 0
             for c in channels:
                 if not 0 <= c < n:
                     raise ValueError(f"channel {c} does not exist (this device has {n})")
                 mask |= 1 << c
+            if not mask:
+                raise ValueError("tare needs at least one channel (an empty list was given)")
         s = self.settings
         wait = samples * s.decimation / s.rate_sps * 1.6 + 0.5
         self._command(Tare(0, mask, samples), timeout=wait, retries=0)
@@ -376,6 +451,7 @@ class Fingertip(FrameSource):
         """Put known offsets (one per channel) back on the device."""
         if len(offsets) != self.channels:
             raise ValueError(f"need {self.channels} offsets, got {len(offsets)}")
+        offsets = tuple(check_int("a tare offset", v, INT24_MIN, INT24_MAX) for v in offsets)
         padded = tuple(offsets) + (0,) * (MAX_CHANNELS - len(offsets))
         self._command(SetTareOffsets(0, (1 << len(offsets)) - 1, padded))
         self.settings.offsets = tuple(offsets)
@@ -386,6 +462,8 @@ class Fingertip(FrameSource):
         timeout = self.command_timeout if timeout is None else timeout
         retries = self.retries if retries is None else retries
         name = type(cmd).__name__
+        if self._status == "closed":
+            raise self._not_open()
         for attempt in range(retries + 1):
             if not self._connected.wait(timeout):
                 raise NotConnected(f"{self.name}: not connected ({self._status})")
@@ -454,6 +532,7 @@ class Fingertip(FrameSource):
             stream.close()
         self._fail_pending()
         if not self.reconnect:
+            self._lost_for_good = True
             self._status = "closed"
             self._closing.set()
             with self._cond:

@@ -11,7 +11,8 @@ from collections import deque
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
-from .fingertip import Fingertip, Frame
+from ..protocol import MAX_CHANNELS
+from .fingertip import Fingertip, Frame, NotConnected, check_tare_samples
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,7 +35,8 @@ class Hand:
                 self._fingers[name] = (spec, None)
             else:
                 dev, chans = spec
-                self._fingers[name] = (dev, tuple(chans))
+                self._fingers[name] = (dev, _channels(name, chans))
+        _check_sharing(self._fingers)
         self._devices: list[Fingertip] = []
         for dev, _ in self._fingers.values():
             if dev not in self._devices:
@@ -67,6 +69,9 @@ class Hand:
         return list(self._fingers)
 
     def device(self, finger: str) -> Fingertip:
+        if finger not in self._fingers:
+            raise KeyError(f"no finger named {finger!r} (this hand has "
+                           f"{', '.join(self._fingers)})")
         return self._fingers[finger][0]
 
     def _make_callback(self, dev: Fingertip):
@@ -92,6 +97,10 @@ class Hand:
             for dev in self._devices:
                 dev.open()
                 opened.append(dev)
+            for name, (dev, chans) in self._fingers.items():
+                if chans is not None and max(chans) >= dev.channels:
+                    raise ValueError(f"finger {name!r} uses channel {max(chans)}, but "
+                                     f"{dev.name} has {dev.channels} (0..{dev.channels - 1})")
         except BaseException:
             for dev in opened:
                 dev.close()
@@ -117,6 +126,7 @@ class Hand:
             dev.stop()
 
     def tare(self, samples: int = 16) -> None:
+        samples = check_tare_samples(samples)  # before any thread: one clear error
         # Taring all devices in parallel: each waits samples/rate seconds on its own.
         errors: list[BaseException] = []
 
@@ -146,14 +156,60 @@ class Hand:
             return dict(self._latest)
 
     def read(self, timeout: float | None = None) -> FingerFrame | None:
+        """The next frame of any finger, or None after ``timeout`` seconds without one.
+        Raises :class:`NotConnected` when every device is closed and no frame is left."""
         with self._cond:
             if not self._queue:
+                self._check_open()
                 self._cond.wait(timeout)
+            if not self._queue:
+                self._check_open()
             return self._queue.popleft() if self._queue else None
+
+    def _check_open(self) -> None:
+        if all(d.status == "closed" for d in self._devices):
+            raise NotConnected("the hand's devices are closed (or were never opened): "
+                               "call open() first (or use `with Hand(...)`)")
 
     def frames(self, timeout: float | None = None) -> Iterator[FingerFrame]:
         while (f := self.read(timeout)) is not None:
             yield f
+
+
+def _channels(finger: str, chans: Sequence[int]) -> tuple[int, ...]:
+    out = tuple(chans)
+    if not out:
+        raise ValueError(f"finger {finger!r} has no channels")
+    for c in out:
+        if isinstance(c, bool) or not isinstance(c, int) or not 0 <= c < MAX_CHANNELS:
+            raise ValueError(f"finger {finger!r}: channel {c!r} is not in 0..{MAX_CHANNELS - 1}")
+    if len(set(out)) != len(out):
+        raise ValueError(f"finger {finger!r} lists a channel twice: {out}")
+    return out
+
+
+def _check_sharing(fingers: Mapping[str, tuple[Fingertip, tuple[int, ...] | None]]) -> None:
+    """A device serves one finger whole, or several fingers with disjoint channels."""
+    owner: dict[tuple[int, int], str] = {}
+    whole: dict[int, str] = {}
+    for name, (dev, chans) in fingers.items():
+        key = id(dev)
+        if chans is None:
+            other = whole.get(key) or next((f for (k, _), f in owner.items() if k == key),
+                                           None)
+            if other is not None:
+                raise ValueError(f"fingers {other!r} and {name!r} share one device: give "
+                                 f"each its channels (Hand.split)")
+            whole[key] = name
+            continue
+        if key in whole:
+            raise ValueError(f"fingers {whole[key]!r} and {name!r} share one device: give "
+                             f"each its channels (Hand.split)")
+        for c in chans:
+            if (key, c) in owner:
+                raise ValueError(f"channel {c} is given to both {owner[(key, c)]!r} and "
+                                 f"{name!r}")
+            owner[(key, c)] = name
 
 
 def _select(frame: Frame, chans: tuple[int, ...]) -> Frame:

@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from ..argtypes import number
+from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 
@@ -50,6 +51,7 @@ def _describe(data, summary) -> str:
             f"{summary['force_max_n']:.2f} N; condition number {summary['condition_number']:.3g}")
 
 
+@reports_bad_files
 def _cmd_check(args: argparse.Namespace) -> int:
     """Check that a calibration dataset can determine the force model, without fitting."""
     data, summary = _load(args)
@@ -64,6 +66,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_bad_files
 def _cmd_fit(args: argparse.Namespace) -> int:
     """Fit an affine map, polynomials and MLPs from the four strain channels to (Fx, Fy) on
     a calibration dataset (a CSV file or a folder of CSVs: counts c0..c3 or ch0..ch3, fx, fy

@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from ..argtypes import number
+from ..badfile import FILE_ERRORS, reports_bad_files
 log = logging.getLogger("fingertip")
 
 
@@ -45,8 +46,7 @@ def _user_errors():
     from ..audio import AudioError
     from .classify import DatasetError, ModelError
     from .features import FeatureError
-    return (DatasetError, ModelError, FeatureError, AudioError, FileNotFoundError,
-            LookupError)
+    return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
 def _print_evaluation(ev, indent: str = "  ") -> None:
@@ -80,6 +80,7 @@ def _split_line(split: dict) -> str:
             f"(no recording on both sides; per class in report.json)")
 
 
+@reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
     recordings, any rate from 1 to 384 kHz, any length from 0.1 s): windows and bands
@@ -142,6 +143,7 @@ def _print_material_report(rep: dict) -> None:
           f"{rep['unknown']['below_probability']:.2f}")
 
 
+@reports_bad_files
 def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
@@ -203,6 +205,7 @@ def _simulated_source(name: str, kind: str, duration: float | None, realtime: bo
                            name=f"simulated {scene.name}({name})")
 
 
+@reports_bad_files
 def _cmd_classify(args: argparse.Namespace) -> int:
     """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
     paired with a fingertip's serial port, or the virtual fingertip) with a model made by

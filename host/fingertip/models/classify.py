@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..badfile import BadFileError
 from .features import (
     AUDIO_EXTENSIONS,
     CLIP_FLAG,
@@ -354,6 +355,12 @@ class FeaturePipeline:
         self.spec = spec
         self.spectro = Spectrogrammer(cfg, dtype)
 
+    @property
+    def input_shape(self) -> tuple[int, ...]:
+        """One window's input: (3 x bands,) pooled, or (frames, bands) spectrogram."""
+        n = self.cfg.n_bands
+        return (3 * n,) if self.spec.input == "pooled" else (self.spec.frames, n)
+
     def span_s(self) -> float:
         """Seconds of audio one window needs."""
         return (self.spec.frames - 1) * self.cfg.hop_s + self.cfg.win_s
@@ -540,7 +547,7 @@ class Classification:
                 for c in self.classes}
 
 
-class ModelError(ValueError):
+class ModelError(BadFileError):
     """A model file that is not a vibration classifier of the kind asked for."""
 
 
@@ -555,20 +562,42 @@ class VibrationClassifier:
         meta = self.model.metadata
         if meta.get("format") != MODEL_FORMAT:
             raise ModelError(f"{path} is not a vibration classifier made by `fingertip train` "
-                             f"(format {meta.get('format')!r})")
+                             f"(format {meta.get('format')!r})", path)
         self.kind = meta.get("kind", "")
         if kind is not None and self.kind != kind:
-            raise ModelError(f"{path} is a {self.kind} model, not a {kind} model")
+            raise ModelError(f"{path} is a {self.kind} model, not a {kind} model", path)
         self.path = Path(path)
         self.meta = meta
-        self.cfg = FeatureConfig.from_dict(json.loads(meta["features"]))
-        w = json.loads(meta["window"])
-        self.spec = WindowSpec(int(w["frames"]), float(w["step_s"]), meta["input"],
-                               w.get("min_frames"), tuple(w.get("stats", STATS)))
-        self.classes: list[str] = json.loads(meta["classes"])
+        try:  # a hand-edited or foreign graph: say so instead of a KeyError deep inside
+            self.cfg = FeatureConfig.from_dict(json.loads(meta["features"]))
+            w = json.loads(meta["window"])
+            self.spec = WindowSpec(int(w["frames"]), float(w["step_s"]), meta["input"],
+                                   w.get("min_frames"), tuple(w.get("stats", STATS)))
+            self.classes: list[str] = [str(c) for c in json.loads(meta["classes"])]
+            self.unknown_below = float(json.loads(meta.get("unknown_below", "0")))
+            self.temperature = float(json.loads(meta.get("temperature", "1")))
+        except (KeyError, TypeError, ValueError, AttributeError) as e:
+            raise ModelError(f"{path}: its classifier metadata is incomplete or damaged "
+                             f"({type(e).__name__}: {e})", path) from e
         self.pipeline = FeaturePipeline(self.cfg, self.spec)
-        self.unknown_below = float(json.loads(meta.get("unknown_below", "0")))
-        self.temperature = float(json.loads(meta.get("temperature", "1")))
+        self._check_graph(path)
+
+    def _check_graph(self, path: str | os.PathLike) -> None:
+        """Refuse a graph whose input or output does not fit the metadata (a graph swapped
+        in from another model), before any audio is read."""
+        want = self.pipeline.input_shape
+        got = self.model.session.get_inputs()[0].shape
+        fixed = [d if isinstance(d, int) else None for d in got[1:]]
+        if len(fixed) != len(want) or any(d is not None and d != w
+                                          for d, w in zip(fixed, want, strict=True)):
+            shown = ", ".join("?" if d is None else str(d) for d in fixed)
+            raise ModelError(f"{path}: the graph takes inputs of shape ({shown}) but its "
+                             f"metadata describes ({', '.join(map(str, want))}): not the "
+                             f"graph `fingertip train` wrote for it", path)
+        out = self.model.session.get_outputs()[0].shape
+        if not self.classes or (isinstance(out[-1], int) and out[-1] != len(self.classes)):
+            raise ModelError(f"{path}: the graph outputs {out[-1]} values for "
+                             f"{len(self.classes)} classes", path)
 
     @property
     def architecture(self) -> str:
@@ -615,12 +644,15 @@ class VibrationClassifier:
         return Classification(self._predictions(w, probs, run=run), self.classes,
                               self.unknown_below)
 
-    def live(self, sample_rate: float, what: str = "the audio source") -> _LiveWindows:
+    def live(self, sample_rate: float, what: str = "the audio source"
+             ) -> _LiveWindows | _LiveGrowing:
         """A windower for audio that arrives chunk by chunk (when the chunks also go
         elsewhere, e.g. onto the network): ``live.feed(x, first_index, chunk)`` yields the
         predictions each chunk completes (``x``: one channel as floats in [-1, 1])."""
         rate = float(sample_rate)
         self.cfg.check_supports(rate, what)
+        if self.spec.input == "growing":
+            return _LiveGrowing(self, rate)
         return _LiveWindows(self, rate)
 
     def stream(self, source, *, duration: float | None = None, channel: int = 0,
@@ -634,12 +666,6 @@ class VibrationClassifier:
         """
         live = self.live(source.sample_rate, getattr(source, "name", "the audio source"))
         rate = float(source.sample_rate)
-<<<<<<< HEAD
-        self.cfg.check_supports(rate, getattr(source, "name", "the audio source"))
-        live = _LiveGrowing(self, rate) if self.spec.input == "growing" \
-            else _LiveWindows(self, rate)
-=======
->>>>>>> i16
         if not (source.running or source.finished):
             source.start()
         limit = None if duration is None else int(round(duration * rate))

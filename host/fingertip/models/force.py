@@ -28,6 +28,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..badfile import BadFileError
 from .onnx_io import open_session
 
 INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
@@ -100,6 +101,10 @@ class ForceModel:
 
     def __init__(self, path: str | Path, *, gain: int | None = None, threads: int = 1,
                  range_margin: float = 0.1) -> None:
+        if gain is not None and gain not in (128, 64, 32):
+            raise ValueError(f"gain must be 128, 64 or 32 (the HX711's), not {gain!r}")
+        if not 0 <= range_margin < float("inf"):
+            raise ValueError(f"range_margin must be a fraction >= 0, not {range_margin!r}")
         self._session = open_session(path, threads, what="force model")
         self.path = Path(path)
         self._local = threading.local()
@@ -111,12 +116,17 @@ class ForceModel:
         m = self.metadata
         shape_c = inp.shape[-1] if isinstance(inp.shape[-1], int) else None
         self.channels = int(m.get("channels", shape_c or 4))
+        kind = m.get("fingertip_model", "force")
+        if kind != "force" or str(m.get("format", "")).startswith("fingertip-vibration"):
+            raise BadFileError(f"{path} is not a force model (it is a "
+                               f"{m.get('kind') or kind or 'different'} model)", path)
         if shape_c is not None and shape_c != self.channels:
-            raise ValueError(f"{path}: metadata says {self.channels} channels, the graph "
-                             f"takes {shape_c}")
+            raise BadFileError(f"{path}: metadata says {self.channels} channels, the graph "
+                               f"takes {shape_c}", path)
         out_c = self._session.get_outputs()[0].shape[-1]
         if isinstance(out_c, int) and out_c != 2:
-            raise ValueError(f"{path} outputs {out_c} values, not (Fx, Fy)")
+            raise BadFileError(f"{path} outputs {out_c} values, not (Fx, Fy): not a force "
+                               f"model", path)
         self.units = str(m.get("units", "N"))
         self.kind = str(m.get("model", m.get("kind", "unknown")))
         self.rmse_n = float(m["heldout_rmse_n"]) if "heldout_rmse_n" in m else None

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
+
+from ..badfile import BadFileError, require_file
 
 
 def onnx_builder() -> tuple[Any, Any, Any, Any]:
@@ -38,12 +41,16 @@ def save_graph(graph: Any, path: str | Path, metadata: dict[str, Any], opset: in
 
 def open_session(path: str | Path, threads: int = 1, *, what: str = "model file") -> Any:
     """An onnxruntime CPU session on ``path``: FileNotFoundError when it is missing
-    ("no {what} at ..."), ValueError when onnxruntime cannot load it."""
+    ("no {what} at ..."), :class:`~fingertip.badfile.BadFileError` (a ValueError) when it is
+    empty, a folder, or not an ONNX graph onnxruntime can load."""
     import onnxruntime as ort
 
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise ValueError(f"threads must be an integer >= 1, not {threads!r}")
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise FileNotFoundError(f"no {what} at {path}")
+    require_file(path, what)
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = threads  # a control loop wants one predictable core
     opts.inter_op_num_threads = 1
@@ -55,4 +62,17 @@ def open_session(path: str | Path, threads: int = 1, *, what: str = "model file"
     try:
         return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
     except Exception as e:  # onnxruntime raises its own exception types
-        raise ValueError(f"{path} is not a usable ONNX model: {e}") from e
+        raise BadFileError(f"{path} is not a usable ONNX model ({_ort_reason(e)})", path
+                           ) from e
+
+
+def _ort_reason(e: Exception) -> str:
+    """onnxruntime's message without its prefix and the path repeated: "[ONNXRuntimeError] :
+    7 : INVALID_PROTOBUF : Load model from X failed:Protobuf parsing failed." ->
+    "INVALID_PROTOBUF: Protobuf parsing failed."."""
+    text = str(e)
+    m = re.search(r"\[ONNXRuntimeError\]\s*:\s*\d+\s*:\s*(\w+)\s*:\s*(.*)", text, re.S)
+    if not m:
+        return text
+    detail = re.sub(r"^Load model from .*? failed:\s*", "", m.group(2), flags=re.S)
+    return f"{m.group(1)}: {detail}"

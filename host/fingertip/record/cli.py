@@ -19,14 +19,21 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..argtypes import dispatch, number
+from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 
 def load_force_model(spec: str):
-    """``package.module:function`` -> the callable (counts -> (fx, fy[, fz]))."""
+    """``FILE.onnx`` (made by `fingertip calibrate fit`) or ``package.module:function`` ->
+    the callable (counts -> (fx, fy[, fz]))."""
+    if spec.lower().endswith(".onnx"):
+        from ..models.force import ForceModel
+
+        return ForceModel(spec)  # a bad file raises BadFileError (a ValueError)
     mod_name, sep, attr = spec.partition(":")
     if not sep or not mod_name or not attr:
-        raise ValueError(f"--force-model must look like package.module:function, not {spec!r}")
+        raise ValueError(f"--force-model must be a FILE.onnx or look like "
+                         f"package.module:function, not {spec!r}")
     try:
         mod = importlib.import_module(mod_name)
     except ImportError as e:
@@ -43,6 +50,7 @@ def load_force_model(spec: str):
 
 # --- record -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_record(args: argparse.Namespace) -> int:
     """Record a fingertip (frames, forces, audio, events) into an MCAP file of ROS 2
     messages, until --duration passes or Ctrl-C."""
@@ -201,13 +209,15 @@ def _record_loop(args, ft, rec, audio, name: str, out: Path) -> int:
           f"{fst.frames_lost}, CRC errors {fst.crc_errors}, reconnects {fst.reconnects}",
           file=sys.stderr)
     if rec.error is not None:
-        log.error("%s", rec.error)
+        log.error("%s; what was written before is readable, and `fingertip repair %s` "
+                  "makes a complete copy of it", rec.error, out)
         return 1
     return 0
 
 
 # --- replay -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_replay(args: argparse.Namespace) -> int:
     """Play a recording through the same frame interface as a live device and print its
     frames as `fingertip stream` does."""
@@ -243,14 +253,15 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
         sys.stderr.close()
         return 0
-    note = (" (the recording was cut short: read up to its last complete chunk)"
-            if rp.recording.truncated else "")
+    note = (f" (the recording was cut short: read up to its last complete chunk; "
+            f"{CUT_SHORT_HINT})" if rp.recording.truncated else "")
     print(f"{n} frames replayed from {args.file}{note}", file=sys.stderr)
     return 0
 
 
 # --- export -------------------------------------------------------------------------------
 
+@reports_bad_files
 def _cmd_export(args: argparse.Namespace) -> int:
     """Write a recording's frames (CSV per fingertip), audio (WAV per stream) and events
     (CSV) into a folder."""
@@ -269,11 +280,37 @@ def _cmd_export(args: argparse.Namespace) -> int:
                                           if res.audio_gap_frames.get(n) else "")
               for n, c in res.audio_frames.items()]
     parts.append(f"{res.events} events")
-    note = ("; the recording was cut short: exported up to its last complete chunk"
-            if res.truncated else "")
+    note = (f"; the recording was cut short: exported up to its last complete chunk "
+            f"({CUT_SHORT_HINT})" if res.truncated else "")
     print(f"exported {args.file} to {args.output}: " + ", ".join(parts) + note,
           file=sys.stderr)
     return 0
+
+
+# --- repair -------------------------------------------------------------------------------
+
+@reports_bad_files
+def _cmd_repair(args: argparse.Namespace) -> int:
+    """Write a complete, indexed copy of a recording cut short (a killed recorder, a full
+    disk) or damaged: every complete message is kept, what was lost is reported. Any MCAP
+    reader opens the copy, including the mcap package's make_reader."""
+    from .repair import repair
+
+    try:
+        res = repair(args.file, args.output, overwrite=args.force)
+    except FileExistsError as e:
+        log.error("%s", e)
+        return 2
+    except OSError as e:
+        log.error("cannot write %s: %s", args.output or "the copy", e.strerror or e)
+        return 1
+    if args.json:
+        print(json.dumps(res.as_dict()))
+    print(f"repaired {res.source} -> {res.output}: {res.summary()}", file=sys.stderr)
+    return 0
+
+
+CUT_SHORT_HINT = "`fingertip repair FILE` writes a complete copy that any MCAP reader opens"
 
 
 # --- parsers ------------------------------------------------------------------------------
@@ -348,9 +385,18 @@ def add_parsers(sub) -> None:
                    help="folder for the files (created if needed)")
     e.set_defaults(func=_cmd_export)
 
+    rp = sub.add_parser("repair", help="make a complete, indexed copy of a recording cut "
+                                       "short or damaged", description=_cmd_repair.__doc__)
+    rp.add_argument("file", metavar="FILE.mcap", help="the recording to repair (not changed)")
+    rp.add_argument("-o", "--output", metavar="OUT.mcap",
+                    help="the copy (default: FILE.repaired.mcap beside it)")
+    rp.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    rp.add_argument("--json", action="store_true", help="print what was kept and lost as JSON")
+    rp.set_defaults(func=_cmd_repair)
+
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fingertip.record record|replay|export ...``"""
+    """``python -m fingertip.record record|replay|export|repair ...``"""
     parser = argparse.ArgumentParser(prog="fingertip",
                                      description="Record, replay and export fingertip data.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")

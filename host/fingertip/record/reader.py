@@ -127,7 +127,8 @@ class Recording:
                     return
                 except EndOfFile:
                     self.truncated = True
-                    self.problem = "the file ends inside a record (recording interrupted)"
+                    self.problem = ("the file ends inside a record (recording interrupted; "
+                                    "`fingertip repair` makes a complete copy)")
                     return
                 except Exception as e:  # damaged bytes: CRC, zstd, struct, decode errors
                     self.truncated = True

@@ -159,8 +159,11 @@ class Recorder:
                  flush_bytes: int = 1 << 20, queue_size: int = 20000,
                  compression: str = "zstd", fsync: bool = False,
                  overwrite: bool = False, metadata: dict[str, str] | None = None) -> None:
-        if not flush_interval > 0:
-            raise ValueError("flush_interval must be positive")
+        if not 0 < flush_interval < float("inf"):
+            raise ValueError(f"flush_interval must be a positive number of seconds, not "
+                             f"{flush_interval!r}")
+        if not (isinstance(queue_size, int) and queue_size >= 1):
+            raise ValueError(f"queue_size must be an integer >= 1, not {queue_size!r}")
         if flush_bytes < 1024:
             raise ValueError("flush_bytes must be at least 1024")
         if compression not in COMPRESSIONS:
@@ -201,6 +204,9 @@ class Recorder:
 
         Raises :class:`RecorderError` when the file cannot be created or written.
         """
+        if self._state == "closed":
+            raise RecorderError(f"the recorder of {self.path} is closed: a closed recorder "
+                                "cannot start again (make a new Recorder)")
         if self._state != "new":
             return self
         fd = self._open_file()
@@ -357,6 +363,8 @@ class Recorder:
         on the writer thread for every frame and written on ``/fingertip/<name>/wrench``.
         """
         S.check_name(name)
+        if self._state == "closed":
+            raise RecorderError(f"cannot add {name!r}: the recorder of {self.path} is closed")
         if name in self._devices:
             raise ValueError(f"a fingertip named {name!r} is already being recorded")
         self._devices[name] = _Device(name, force_model)
@@ -376,7 +384,7 @@ class Recorder:
         self.add_device(name, info=device_info(fingertip, name), force_model=force_model)
         dev = self._devices[name]
         dev.fingertip = fingertip
-        dev.callback = lambda frame, _n=name: self.write_frame(_n, frame)
+        dev.callback = lambda frame, _n=name: self._write_frame(_n, frame)
         fingertip.add_callback(dev.callback)
         return name
 
@@ -416,13 +424,13 @@ class Recorder:
                         if source.finished:
                             break
                         continue
-                    self.write_audio(name, chunk)
+                    self._write_audio(name, chunk)
                 # What was captured before the stop is still recorded.
                 while (chunk := source.read(max_frames, timeout=0)) is not None:
-                    self.write_audio(name, chunk)
+                    self._write_audio(name, chunk)
             except Exception as e:  # a broken source must not kill the recording silently
                 log.error("audio %s: %s", name, e)
-                self.write_event(name, "audio_error", 0.0, detail=str(e))
+                self._write_event(name, "audio_error", 0.0, detail=str(e))
 
         t = threading.Thread(target=pump, daemon=True, name=f"recorder-audio-{name}")
         self._pumps.append(t)
@@ -453,8 +461,22 @@ class Recorder:
             d = self._stats.dropped
             d[topic_name] = d.get(topic_name, 0) + 1
 
+    def _check_order(self, what: str) -> None:
+        """Writing before start() or after close() is a mistake in the caller's order:
+        say so (a failed recorder still accepts and counts writes, as documented)."""
+        if self._state == "new":
+            raise RecorderError(f"{what} before start(): start the recorder first (or use "
+                                f"`with Recorder(...)`)")
+        if self._state == "closed":
+            raise RecorderError(f"{what} after close(): {self.path} is finished")
+
     def write_frame(self, name: str, frame: Frame) -> bool:
         """Queue a frame of fingertip ``name``. False if it was dropped."""
+        self._check_order("write_frame")
+        return self._write_frame(name, frame)
+
+    def _write_frame(self, name: str, frame: Frame) -> bool:
+        # The device callback's path: it may race with close() and must never raise there.
         if name not in self._devices:
             self.add_device(name)
         return self._put(S.topic(name, "raw"), ("raw", name, frame))
@@ -463,11 +485,16 @@ class Recorder:
                      torque: Sequence[float] = (0.0, 0.0, 0.0)) -> bool:
         """Queue forces (N) and torques (N m) of fingertip ``name`` at monotonic
         ``host_time`` (for forces from your own model; see ``force_model`` otherwise)."""
+        self._check_order("write_wrench")
         return self._put(S.topic(name, "wrench"),
                          ("wrench", name, host_time, xyz(force), xyz(torque)))
 
     def write_audio(self, name: str, chunk: Chunk) -> bool:
         """Queue an audio chunk of fingertip ``name`` (its samples are copied now)."""
+        self._check_order("write_audio")
+        return self._write_audio(name, chunk)
+
+    def _write_audio(self, name: str, chunk: Chunk) -> bool:
         topic_name = S.topic(name, "audio")
         payload = audio_payload(chunk.samples)
         if payload is None:
@@ -487,6 +514,11 @@ class Recorder:
                     host_time: float | None = None, detail: str = "") -> bool:
         """Queue an event of fingertip ``name`` at monotonic ``host_time`` (default: now)."""
         S.check_name(name)
+        self._check_order("write_event")
+        return self._write_event(name, kind, value, host_time=host_time, detail=detail)
+
+    def _write_event(self, name: str, kind: str, value: float = 0.0, *,
+                     host_time: float | None = None, detail: str = "") -> bool:
         t = time.monotonic() if host_time is None else host_time
         return self._put(S.topic(name, "events"),
                          ("event", name, t, str(kind), float(value), str(detail)))
@@ -500,6 +532,8 @@ class Recorder:
 
     def write_info(self, name: str, info: Any, host_time: float | None = None) -> bool:
         """Queue a JSON description of fingertip ``name`` (``/fingertip/<name>/info``)."""
+        if self._state == "closed":
+            self._check_order("write_info")
         if hasattr(info, "__dataclass_fields__") and hasattr(info, "TYPE"):
             info = message_to_dict(info)
         text = info if isinstance(info, str) else json.dumps(info, default=str)
@@ -514,6 +548,7 @@ class Recorder:
 
     def flush(self, timeout: float = 5.0) -> bool:
         """Write everything queued so far and close the chunk in progress. True when done."""
+        self._check_order("flush")
         done = threading.Event()
         if not self._put("(flush)", ("flush", done)):
             return False

@@ -154,6 +154,8 @@ class Replay(FrameSource):
                  audio_buffer_seconds: float = 10.0) -> None:
         if speed is not None and not (speed > 0 and math.isfinite(speed)):
             raise ValueError(f"speed must be a positive number (or None), not {speed}")
+        if not (isinstance(queue_size, int) and queue_size >= 1):
+            raise ValueError(f"queue_size must be an integer >= 1, not {queue_size!r}")
         self.recording = rec = Recording(path)
         devices = rec.devices()
         if name is None:
@@ -283,6 +285,10 @@ class Replay(FrameSource):
         with self._cond:
             if not self._queue:
                 if self._status == "closed":
+                    if not self._ended:  # a loop on it would spin on None for ever
+                        raise NotConnected(f"replay of {self.recording.path} was never "
+                                           f"opened: call open() or start() first (or use "
+                                           f"`with Replay(...)`)")
                     return None
                 self._cond.wait(timeout)
             if self._queue:

@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 
 from ..argtypes import number
+from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 
@@ -22,6 +23,7 @@ def _report(res, what: str) -> None:
     print(f"wrote {what} to {res.out} in {res.wall_s:.1f} s (see {res.out / 'dataset.json'})")
 
 
+@reports_bad_files
 def _cmd_calibration(args: argparse.Namespace) -> int:
     """Simulate the paper's calibration sweep (angles -50..50 deg in 10 deg steps, contact
     heights 0..5 mm, indentation steps of 1.5 mm to 30 mm, loading and unloading, 8 s pauses)
@@ -43,6 +45,7 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
     return 0
 
 
+@reports_bad_files
 def _cmd_vibration(args: argparse.Namespace) -> int:
     """Simulate labelled contact-microphone recordings: one sub-folder per class of WAV
     files (materials: the paper's seven; shake: screws / rubber_bands / empty; cups: slides

@@ -253,7 +253,7 @@ def _load_params(params_file: str | os.PathLike | None):
     except OSError as e:
         raise DatasetError(f"cannot read {params_file}: {e.strerror or e}") from e
     except ValueError as e:
-        raise DatasetError(f"bad parameter file: {e}") from e
+        raise DatasetError(f"bad parameter file {params_file}: {e}") from e
 
 
 def _derived_seed(*parts: int) -> int:

@@ -1,0 +1,89 @@
+"""Files a user hands us that cannot be used: one exception type, one line, exit status 2.
+
+Every command that loads a model (.onnx), a recording (.mcap, WAV...), a dataset or a
+configuration reports a bad file the same way: ``ERROR fingertip: <file>: <why>`` and exit
+status 2, never a traceback. Loaders raise :class:`BadFileError` (a ``ValueError``, so older
+``except ValueError`` code still catches it); command handlers are wrapped in
+:func:`reports_bad_files`, which turns it, and the operating system's refusals (no such
+file, a folder, no permission), into that one line.
+
+No imports from the rest of the package, so every layer may use it.
+"""
+from __future__ import annotations
+
+import functools
+import logging
+import os
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger("fingertip")
+
+MAX_LINE = 300
+"""Characters of a reason kept: library messages can be long (a protobuf dump, a path list)."""
+
+
+class BadFileError(ValueError):
+    """A file that cannot be used for what it was given for. ``path`` names it (may be None
+    when the message already does)."""
+
+    def __init__(self, message: str, path: str | os.PathLike | None = None) -> None:
+        super().__init__(one_line(message))
+        self.path = None if path is None else Path(path)
+
+
+def one_line(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` with its line breaks and runs of spaces folded, cut to ``limit`` characters."""
+    s = re.sub(r"\s+", " ", str(text)).strip()
+    return s if len(s) <= limit else s[:limit - 3].rstrip() + "..."
+
+
+def require_file(path: str | os.PathLike, what: str) -> Path:
+    """``path`` as a Path if it is a non-empty regular file; otherwise a BadFileError that
+    says which of missing / a folder / empty it is (``what``: "ONNX model", "recording"...)."""
+    p = Path(path)
+    if not p.exists():
+        raise BadFileError(f"{p}: no such file (expected {what})", p)
+    if p.is_dir():
+        raise BadFileError(f"{p}: is a folder, not {_article(what)} {what}", p)
+    try:
+        size = p.stat().st_size
+    except OSError as e:
+        raise BadFileError(f"{p}: cannot read ({e.strerror or e})", p) from e
+    if size == 0:
+        raise BadFileError(f"{p}: the file is empty (expected {what})", p)
+    return p
+
+
+def _article(word: str) -> str:
+    return "an" if word[:1].lower() in "aeiou" else "a"
+
+
+FILE_ERRORS: tuple[type[BaseException], ...] = (BadFileError, FileNotFoundError,
+                                                IsADirectoryError, NotADirectoryError,
+                                                PermissionError, UnicodeDecodeError)
+"""What a user's file can cause anywhere below a command: reported as one line, exit 2."""
+
+
+def describe(e: BaseException) -> str:
+    """One line for an exception of :data:`FILE_ERRORS`."""
+    if isinstance(e, OSError) and e.filename is not None:
+        return one_line(f"{e.filename}: {e.strerror or e}")
+    if isinstance(e, UnicodeDecodeError):
+        return one_line(f"not a text file ({e.reason} at byte {e.start})")
+    return one_line(str(e))
+
+
+def reports_bad_files(fn: Callable[[Any], int]) -> Callable[[Any], int]:
+    """Wrap a command handler (``args -> exit code``): a bad file ends it with one log line
+    and exit status 2."""
+    @functools.wraps(fn)
+    def run(args: Any) -> int:
+        try:
+            return fn(args)
+        except FILE_ERRORS as e:
+            log.error("%s", describe(e))
+            return 2
+    return run
