@@ -128,7 +128,7 @@ def calibration_sweep(sensor: VirtualStrainSensor | None = None, *, seed: int = 
         mag = force_at(dd, contact, travel_mm, end_force)
         fz = np.zeros_like(mag)
         if realism.skin:
-            mag, fz = _skin(mag, since, rp, sensor, true_h)
+            mag, fz = _skin(mag, since, pause_s, rp, sensor, true_h)
         t_parts.append(tt)
         f_parts.append(mag)
         z_parts.append(np.full(len(tt), true_a))
@@ -156,20 +156,19 @@ def calibration_sweep(sensor: VirtualStrainSensor | None = None, *, seed: int = 
                  step, np.rint(tt[rec] * 1e6).astype(np.int64), sensor.seed)
 
 
-def _skin(mag: np.ndarray, since_s: np.ndarray, rp: RealismParams,
+def _skin(mag: np.ndarray, since_s: np.ndarray, pause_s: float, rp: RealismParams,
           sensor: VirtualStrainSensor, height_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """The silicone skin under a held indentation: force and vertical friction force.
 
     Position control: right after a step the skin carries its unrelaxed stiffness, so the
-    force is higher by G(t)/G(inf) and settles during the pause (the F/T sensor reads the
-    settled value at the reading). The cap tilts on its base by F z_c / k_rot; the contact
+    force is higher, G(t)/G(pause) times the force at the reading (which keeps the sweep's
+    force law at the readings), and settles during the pause. The cap tilts on its base by F z_c / k_rot; the contact
     point, at the fingertip's side radius r, rises by r theta against the indenter, and the
     skin's shear over the indenter's patch carries Fz = k_s G(t)/G(0) r theta (compressive),
     at most the friction limit mu F. Upper bound: the whole of it relaxes after each step."""
     sk = rp.skin
     g = sk.relaxation(since_s)
-    g_inf = 1 - sum(sk.relax_fraction)
-    mag = mag * g / g_inf
+    mag = mag * g / sk.relaxation(pause_s)
     p = sensor.params
     zc = (p.geometry.nail_tip_z_mm - height_mm) * 1e-3
     theta = mag * zc / p.base.rotational_stiffness_nm_per_rad

@@ -216,7 +216,8 @@ class UnitRealism:
         d, th, cr, mo = p.hx711_drift, p.thermal, p.creep, p.mount
         off = rng.normal(0, d.offset_nv_per_k * 1e-9, 4)
         gain = rng.normal(0, d.gain_ppm_per_k * 1e-6, 4)
-        tcr = rng.normal(0, th.completion_tcr_ppm_per_k * 1e-6, (4, 3))
+        # Within the datasheet's limit, uniformly (the limit is no standard deviation).
+        tcr = rng.uniform(-1, 1, (4, 3)) * th.completion_tcr_ppm_per_k * 1e-6
         lo, hi = th.hvac_period_s
         period = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
         ph1, ph2 = rng.uniform(0, 2 * math.pi, 2)
