@@ -162,8 +162,9 @@ def _skin(mag: np.ndarray, since_s: np.ndarray, pause_s: float, rp: RealismParam
 
     Position control: right after a step the skin carries its unrelaxed stiffness, so the
     force is higher, G(t)/G(pause) times the force at the reading (which keeps the sweep's
-    force law at the readings), and settles during the pause. The cap tilts on its base by F z_c / k_rot; the contact
-    point, at the fingertip's side radius r, rises by r theta against the indenter, and the
+    force law at the readings), and settles during the pause. The cap tilts on its base by
+    F z_c / k_rot; the contact point, at the fingertip's side radius r, rises by r theta
+    against the indenter, and the
     skin's shear over the indenter's patch carries Fz = k_s G(t)/G(0) r theta (compressive),
     at most the friction limit mu F. Upper bound: the whole of it relaxes after each step."""
     sk = rp.skin
