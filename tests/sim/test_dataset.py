@@ -64,11 +64,16 @@ def test_calibration_files_and_columns(cal):
         assert np.all(np.diff(d["device_time_us"]) > 0)
         mag = np.hypot(d["fx"], d["fy"])
         assert mag.max() <= 5.0 and mag.max() > 4.4
+        # The real direction: the nominal one plus the fixture's spread (2 deg, 1 sigma).
         ang = np.degrees(np.arctan2(d["fy"], d["fx"]))[mag > 0.5]
-        assert np.allclose(ang, d["angle_deg"][mag > 0.5])
+        assert np.abs(ang - d["angle_deg"][mag > 0.5]).max() < 10
         # Tared: near zero without load; and the counts carry the force (affine fit).
         counts = np.column_stack([d[f"ch{i}"] for i in range(4)]).astype(float)
-        assert np.abs(counts[mag == 0]).max() < 30_000
+        # (before the first contact: later the room's temperature moves the zero, mostly in
+        # common mode, by ~60k counts per kelvin, and creep recovery follows each unloading)
+        first = (d["device_time_us"] < d["device_time_us"][0] + 300_000_000) \
+            & (d["phase"] == "loading")
+        assert np.abs(counts[(mag == 0) & first]).max() < 30_000
         a = np.column_stack([counts, np.ones(n)])
         coef, *_ = np.linalg.lstsq(a, np.column_stack([d["fx"], d["fy"]]), rcond=None)
         rmse = np.sqrt(np.mean((a @ coef - np.column_stack([d["fx"], d["fy"]])) ** 2))

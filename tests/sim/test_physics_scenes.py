@@ -11,6 +11,7 @@ from fingertip.sim.physics import (
     CustomForce,
     Idle,
     Press,
+    Realism,
     Script,
     Slide,
     VirtualStrainSensor,
@@ -108,7 +109,7 @@ def test_custom_force_and_a_shared_sensor_keep_state():
 
 
 def test_calibration_sweep_follows_the_paper():
-    sw = calibration_sweep(seed=1)
+    sw = calibration_sweep(seed=1, realism=Realism.none())
     assert len(sw) == 11 * 6 * 40                         # angles x heights x (20 in + 20 out)
     assert sorted(set(sw.angle_deg)) == list(range(-50, 51, 10))
     assert sorted(set(sw.height_mm)) == [0, 1, 2, 3, 4, 5]

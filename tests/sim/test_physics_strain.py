@@ -12,6 +12,7 @@ from fingertip.sim import VirtualFirmware
 from fingertip.sim.physics import (
     Effects,
     Press,
+    Realism,
     VirtualStrainSensor,
     calibration_sweep,
     load,
@@ -24,7 +25,9 @@ NO_SHUNT = Effects(hysteresis=False, creep=False, thermal=False, noise=False, of
 
 
 def nominal(**effects) -> VirtualStrainSensor:
-    return VirtualStrainSensor(variation=False, effects=dataclasses.replace(NO_SHUNT, **effects))
+    """The nominal unit with the model's own effects only (none of the realism sources)."""
+    return VirtualStrainSensor(variation=False, effects=dataclasses.replace(NO_SHUNT, **effects),
+                               realism=Realism.none())
 
 
 # --- closed form ------------------------------------------------------------------------------
@@ -123,7 +126,9 @@ def test_scans_match_their_recurrences():
 # --- the paper's characterisation -------------------------------------------------------------
 
 def test_linear_at_a_fixed_angle_without_hysteresis_and_creep():
-    s = VirtualStrainSensor(2, effects=Effects(hysteresis=False, creep=False))
+    # The room's temperature drift is no non-linearity: hold the temperature.
+    s = VirtualStrainSensor(2, effects=Effects(hysteresis=False, creep=False),
+                            realism=Realism(thermal=False))
     sw = calibration_sweep(s, seed=2, angles_deg=(-30, 0, 40), heights_mm=(2,))
     for angle in (-30, 0, 40):
         m = sw.angle_deg == angle
@@ -180,9 +185,11 @@ def test_creep_rises_after_a_load_step_and_recovers():
 
 
 def test_temperature_drift_moves_offset_and_span():
-    ref = VirtualStrainSensor(4, effects=Effects(noise=False, hysteresis=False, creep=False))
+    # The gauges' own thermal output (no completion-resistor TCR: realism source "thermal").
+    ref = VirtualStrainSensor(4, effects=Effects(noise=False, hysteresis=False, creep=False),
+                              temperature_c=25.0, realism=Realism(thermal=False))
     warm = VirtualStrainSensor(4, effects=Effects(noise=False, hysteresis=False, creep=False),
-                               temperature_c=26.0)
+                               temperature_c=26.0, realism=Realism(thermal=False))
     zero = warm.counts([0, 0], 0, 0.0) - ref.counts([0, 0], 0, 0.0)
     # (PLA CTE - steel compensation) ~ 57 ue/K of apparent strain, ~1.1e3 counts per ue.
     assert np.all((zero > 45_000) & (zero < 85_000))
@@ -206,7 +213,8 @@ def test_saturates_at_the_24_bit_limits():
 def test_noise_follows_the_hx711_rate():
     for rate, nv in ((10, 50e-9), (80, 90e-9)):
         s = VirtualStrainSensor(variation=False, rate_sps=rate,
-                                effects=Effects(hysteresis=False, creep=False, offsets=False))
+                                effects=Effects(hysteresis=False, creep=False, offsets=False),
+                                realism=Realism().only("hx711_noise"))
         c = s.counts_batch(np.zeros((4000, 2)), 0.0, np.arange(4000) / rate)
         expected = nv * s.params.hx711.counts_per_volt
         assert c.std(axis=0) == pytest.approx(np.full(4, expected), rel=0.1)

@@ -14,6 +14,7 @@ Imports numpy and the standard library only. See docs/simulation.md.
 from .calibration import COLUMNS, Sweep, calibration_sweep
 from .materials import MATERIALS, PAPER_SEVEN, Material, material
 from .params import FingertipParams, load, params_path
+from .realism import Realism
 from .scenes import (
     BOX_CONTENTS,
     FORCE,
@@ -38,7 +39,7 @@ __all__ = [
     "BOX_CONTENTS", "COLUMNS", "FORCE", "MATERIALS", "PAPER_SEVEN", "SIGNALS", "VIBRATION",
     "AudioChain", "AudioTrace", "BoxShake", "ContactMakeBreak", "CupStackSlide", "CustomForce",
     "Effects", "Excitation", "FingertipParams", "ForceTrace", "Forces", "Idle", "Material",
-    "Press", "Scene", "Script", "SimResult", "Slide", "Sweep", "UnitVariation",
+    "Press", "Realism", "Scene", "Script", "SimResult", "Slide", "Sweep", "UnitVariation",
     "VirtualStrainSensor", "calibration_sweep", "cap_deflection_m", "load", "material",
     "params_path", "simulate",
 ]

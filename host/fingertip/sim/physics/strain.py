@@ -30,7 +30,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import realism as _realism
 from .params import FingertipParams, load, section_rigidity
+from .realism import Realism, SlowCreep, UnitRealism, eccentric_strain, lab_temperature
 from .scan import affine_scan, play_scan
 
 FACE_ANGLES = np.array([0.0, 0.5, 1.0, 1.5]) * math.pi
@@ -156,8 +158,11 @@ class VirtualStrainSensor:
 
     ``seed`` selects the unit (its deviations) and its noise stream; ``variation=False`` gives
     the nominal unit. ``rate_sps`` (10 or 80) sets the HX711 noise. ``temperature_c`` is a
-    constant or a function of time in seconds (array in, array out); by default the
-    reference temperature (no drift). Forces are in newtons in the fingertip frame (the force
+    constant or a function of time in seconds (array in, array out); by default the room's
+    temperature over a session (:func:`~.realism.lab_temperature`) when the ``thermal``
+    source is on, else the reference temperature (no drift). ``realism`` selects the
+    documented error sources (:class:`~.realism.Realism`: all on by default;
+    ``Realism.none()`` is the ideal sensor). Forces are in newtons in the fingertip frame (the force
     the object applies to the fingertip), contact heights in millimetres below the nail tip,
     times in seconds. Hysteresis and creep keep state between calls: feed samples in time
     order, or call :meth:`reset`.
@@ -165,18 +170,31 @@ class VirtualStrainSensor:
 
     def __init__(self, seed: int | None = 0, *, params: FingertipParams | None = None,
                  variation: bool = True, effects: Effects | None = None, rate_sps: int = 80,
-                 temperature_c: Temperature | None = None) -> None:
+                 temperature_c: Temperature | None = None,
+                 realism: Realism | None = None) -> None:
         self.params = params or load()
         self.seed = seed
+        self.realism = Realism() if realism is None else realism
         ss = np.random.SeedSequence(seed)
-        unit_ss, noise_ss = ss.spawn(2)
+        unit_ss, noise_ss, real_ss = ss.spawn(3)
         self.unit = UnitVariation.draw(self.params, np.random.default_rng(unit_ss)) \
-            if variation else UnitVariation.nominal(self.params)
+            if variation and self.realism.unit_spread else UnitVariation.nominal(self.params)
         self.effects = effects or Effects()
         self.rate_sps = rate_sps
         self.params.hx711.noise_v_rms(rate_sps)  # validates the rate
-        self.temperature_c: Temperature = self.params.thermal.reference_c \
-            if temperature_c is None else temperature_c
+        self.realism_params = _realism.load()
+        self.real = UnitRealism.draw(self.realism_params, self.realism,
+                                     self.unit.shunt if self.effects.shunt else 0.0,
+                                     np.random.default_rng(real_ss))
+        if temperature_c is None:
+            temperature_c = lab_temperature(self.realism_params, self.real,
+                                            self.params.thermal.reference_c) \
+                if self.realism.thermal and self.effects.thermal \
+                else self.params.thermal.reference_c
+        self.temperature_c: Temperature = temperature_c
+        self._slow = SlowCreep(self.real.creep_fraction if self.effects.creep
+                               else np.zeros_like(self.real.creep_fraction),
+                               self.real.creep_tau_s)
         self._noise_rng = np.random.default_rng(noise_ss)
         h = self.params.hysteresis
         self._radii = (np.arange(h.operators) + 0.5) / h.operators * h.radius_max_ue * 1e-6
@@ -187,6 +205,7 @@ class VirtualStrainSensor:
     def reset(self) -> None:
         """Back to the virgin, fully relaxed state (no load history)."""
         self._state = _State(np.zeros((4, len(self._radii))), np.zeros(4), None)
+        self._slow.reset()
 
     # --- mechanics (stateless) ------------------------------------------------------------
 
@@ -236,13 +255,18 @@ class VirtualStrainSensor:
         c = u.prism_side_m / 2
         ei = self.flexural_rigidity_nm2
         e_lat = u.gauge_lateral_m
-        feff = f * (1 - self.shunt_fraction(f))[:, None]
+        kept = 1 - self.shunt_fraction(f)
+        feff = f * kept[:, None]
         fn = feff @ NORMALS.T                               # (N, 4) force along each normal
         ft = feff @ TANGENTS.T                              # (N, 4) force along each face
         zg = self.params.geometry.gauge_center_z_mm * 1e-3 + u.gauge_dz_m
         lever = zc[:, None] - zg[None, :]
         eps = -(c * fn + e_lat * ft) * lever / ei
         eps = eps - fz[:, None] / self.axial_rigidity_n
+        if self.realism.contact:
+            point = c * NORMALS + e_lat[:, None] * TANGENTS
+            eps = eps + eccentric_strain(
+                f, fz * kept, point, self.realism_params.contact.surface_radius_mm * 1e-3, ei)
         if shear is not None:
             g_mod = u.modulus_pa / (2 * (1 + self.params.materials.pla_poisson))
             i_sec = ei / u.modulus_pa
@@ -318,9 +342,11 @@ class VirtualStrainSensor:
             dt = temperature_c[:, None] - p.thermal.reference_c
             gf = gf * (1 + p.gauge.gauge_factor_tc_per_k * dt)
             r_lead = r_lead * (1 + 0.0039 * dt)  # copper
+            rc = rc * (1 + self.real.completion_tcr_per_k * dt[:, :, None])
         r_g = r_g0 * (1 + gf * strain) + r_lead
         v_ex = p.hx711.excitation_v
-        return v_ex * (r_g / (r_g + rc[:, 0]) - rc[:, 1] / (rc[:, 1] + rc[:, 2]))
+        rc = np.broadcast_to(rc, (*r_g.shape, 3))
+        return v_ex * (r_g / (r_g + rc[..., 0]) - rc[..., 1] / (rc[..., 1] + rc[..., 2]))
 
     def noise_counts_rms(self, rate_sps: int | None = None) -> np.ndarray:
         """Input noise of each channel in counts (rms)."""
@@ -365,6 +391,7 @@ class VirtualStrainSensor:
         surface = self._surface(f, zc, fz, shear)
         gauge = self._gauge(surface, shear[0])
         mech = self._creep(self._hysteresis(gauge, update_state), t, update_state)
+        mech = self._slow.apply(mech, t, update_state)
         temp = None
         total = mech
         if self.effects.thermal:
@@ -377,8 +404,11 @@ class VirtualStrainSensor:
         volts = self.bridge_volts(total, temp)
         if self.effects.offsets:
             volts = volts + self.unit.hx711_offset_v
+        if temp is not None:  # the HX711's own temperature coefficients
+            volts = (volts + self.real.offset_drift_v_per_k * dt) \
+                * (1 + self.real.gain_drift_per_k * dt)
         counts_f = volts * self.params.hx711.counts_per_volt
-        if self.effects.noise:
+        if self.effects.noise and self.realism.hx711_noise:
             counts_f = counts_f + self._noise_rng.standard_normal(counts_f.shape) \
                 * self.noise_counts_rms(rate_sps)
         if update_state and t.shape[0]:

@@ -1,0 +1,240 @@
+"""The source paper's characterisation methods, run on virtual fingertips (docs/simulation.md).
+
+Force (paper, "Force estimation with strain gauge sensors"): one session per unit of 66
+trials (11 angles -50..50 deg x 6 contact heights 0..5 mm, in random order), each 20 steps of
+1.5 mm in and 20 out, a reading after an 8 s pause at each step: 2640 readings of the four
+tared channels against the F/T sensor's (Fx, Fy). An MLP maps the four channels to
+(Fx, Fy); its mean squared error on a held-out test set is the paper's figure (0.15 N^2).
+The paper names neither the MLP's size nor its split: here two hidden layers of 64 ReLU
+units trained with Adam on standardised channels (plain, the usual choice), and a random
+80/20 split of the readings.
+
+Vibration (paper, "Material classification with the contact microphone sensor"): STFT
+spectrograms of the slides, cut into windows of 86 frames (the paper's window length, given
+for its shake classifier), flattened into an MLP with a 7-way output; accuracy over a random
+80/20 split of the windows (the paper counts "sequences" per material and tests on a held-out
+part of them). STFT frames: 512-sample Hann windows every 256 samples at 44.1 kHz (ours:
+the paper does not give them), log power pooled into 32 linear bands.
+
+Each function takes the virtual unit's seed and the error sources (``realism``), so the
+paper's method and ours run side by side on the same units (tests/bench/bench_realism.py).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .physics import Realism, Sweep, VirtualStrainSensor, calibration_sweep
+
+log = logging.getLogger(__name__)
+
+PAPER_FORCE_MSE_N2 = 0.15
+PAPER_MATERIAL_ACCURACY = 0.9549
+PAPER_SHAKE_SUCCESS = 0.9464
+PAPER_FORCE_HIDDEN = (64, 64)
+PAPER_TEST_FRACTION = 0.2
+STFT_FRAME = 512
+STFT_HOP = 256
+STFT_BANDS = 32
+WINDOW_FRAMES = 86
+WINDOW_STEP = 17
+"""Frames between windows: 0.1 s at 44.1 kHz (the paper predicts at 10 Hz)."""
+TARE_READINGS = 16
+
+
+@dataclass
+class Session:
+    """One virtual unit's calibration session, tared as the device tares."""
+
+    unit: int
+    sweep: Sweep
+    counts: np.ndarray
+    """(N, 4) float64 tared counts."""
+    force: np.ndarray
+    """(N, 2) true (Fx, Fy), N."""
+
+
+def force_session(unit: int, realism: Realism | None = None) -> Session:
+    """Tare unit ``unit`` (16 readings at rest), then the paper's 66-trial sweep."""
+    sensor = VirtualStrainSensor(unit, realism=realism)
+    t = np.arange(1, TARE_READINGS + 1) / sensor.rate_sps
+    tare = np.rint(sensor.counts_batch(np.zeros((TARE_READINGS, 2)), 0.0, t).mean(axis=0))
+    sw = calibration_sweep(sensor, seed=1000 * unit, t0_us=1_000_000)
+    return Session(unit, sw, sw.counts - tare, np.column_stack([sw.fx, sw.fy]))
+
+
+def random_split(n: int, seed: int, test_fraction: float = PAPER_TEST_FRACTION
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(train, test) row indices: a random split of the rows."""
+    if not 0 < test_fraction < 1 or n < 2:
+        raise ValueError("need 0 < test_fraction < 1 and at least two rows")
+    idx = np.random.default_rng(seed).permutation(n)
+    k = max(1, int(round(n * test_fraction)))
+    return np.sort(idx[k:]), np.sort(idx[:k])
+
+
+def mse(pred: np.ndarray, force: np.ndarray) -> float:
+    """Mean over rows of the squared error vector's length, N^2 (= RMSE^2, as the project's
+    force_mse_n2). The per-component mean would be half of it."""
+    e = np.asarray(pred, float) - np.asarray(force, float)
+    return float(np.mean(np.sum(e * e, axis=1)))
+
+
+def paper_force_model(counts: np.ndarray, force: np.ndarray, *, seed: int = 0,
+                      hidden: tuple[int, ...] = PAPER_FORCE_HIDDEN, epochs: int = 600):
+    """The paper's MLP: standardised channels -> (Fx, Fy). Returns a predict function."""
+    from ..models.mlp import train_mlp
+
+    m = train_mlp(counts, force, hidden=hidden, epochs=epochs, batch=64, lr=3e-3,
+                  patience=40, seed=seed)
+    return m.forward
+
+
+def our_force_model(session: Session, train: np.ndarray, *, models=None, seed: int = 0):
+    """Ours: ``fingertip calibrate fit`` (fit_calibration: its own held-out cells inside the
+    training rows, its model choice, ONNX) on the training rows; returns ForceModel.estimate
+    as a predict function and the chosen model's name."""
+    from ..models.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays
+    from ..models.force import ForceModel
+
+    sw = session.sweep
+    data = from_arrays(session.counts[train], session.force[train, 0], session.force[train, 1],
+                       angle_deg=sw.angle_deg[train], height_mm=sw.height_mm[train],
+                       trial=sw.trial[train],
+                       phase=np.where(sw.loading[train], "loading", "unloading"))
+    with tempfile.TemporaryDirectory(prefix="fingertip-ours-") as tmp:
+        rep = fit_calibration(data, tmp, models=models or DEFAULT_MODELS, plot=False, seed=seed,
+                              single_calls=50)
+        fm = ForceModel(os.path.join(tmp, "force.onnx"))
+
+        def predict(counts: np.ndarray) -> np.ndarray:
+            return np.asarray(fm.estimate(np.asarray(counts)), float)
+
+        return predict, rep.chosen
+
+
+@dataclass
+class ForceComparison:
+    unit: int
+    paper_mse_n2: float
+    ours_mse_n2: float
+    ours_model: str
+    n_train: int
+    n_test: int
+
+    @property
+    def rmse_ratio(self) -> float:
+        """Our RMSE over the paper method's, same unit, same rows."""
+        return float(np.sqrt(self.ours_mse_n2 / self.paper_mse_n2))
+
+
+def trial_split(session: Session, seed: int, test_fraction: float = PAPER_TEST_FRACTION
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(train, test) row indices with whole trials held out (no reading of a test trial,
+    and so no moment of its time, is seen in training)."""
+    trials = np.unique(session.sweep.trial)
+    ttr, tte = random_split(len(trials), seed, test_fraction)
+    test = np.isin(session.sweep.trial, trials[tte])
+    return np.flatnonzero(~test), np.flatnonzero(test)
+
+
+def compare_force(unit: int, realism: Realism | None = None, *, ours: bool = True,
+                  seed: int = 0, split: str = "rows") -> ForceComparison:
+    """The paper's method and ours on one virtual unit: same session, same test rows.
+    ``split``: "rows" (random readings, the paper's reading) or "trials" (whole trials)."""
+    s = force_session(unit, realism)
+    if split not in ("rows", "trials"):
+        raise ValueError(f"unknown split {split!r}: rows or trials")
+    tr, te = random_split(len(s.counts), seed + unit) if split == "rows" \
+        else trial_split(s, seed + unit)
+    paper = paper_force_model(s.counts[tr], s.force[tr], seed=seed)
+    p_mse = mse(paper(s.counts[te]), s.force[te])
+    o_mse, name = float("nan"), ""
+    if ours:
+        pred, name = our_force_model(s, tr, seed=seed)
+        o_mse = mse(pred(s.counts[te]), s.force[te])
+    return ForceComparison(unit, p_mse, o_mse, name, len(tr), len(te))
+
+
+# --- vibration ----------------------------------------------------------------------------
+
+def spectrogram(x: np.ndarray) -> np.ndarray:
+    """Log power STFT, (frames, STFT_BANDS): Hann 512 / hop 256, bins pooled into bands."""
+    x = np.asarray(x, np.float64)
+    if len(x) < STFT_FRAME:
+        x = np.pad(x, (0, STFT_FRAME - len(x)))
+    n = 1 + (len(x) - STFT_FRAME) // STFT_HOP
+    frames = np.lib.stride_tricks.sliding_window_view(x, STFT_FRAME)[::STFT_HOP][:n]
+    power = np.abs(np.fft.rfft(frames * np.hanning(STFT_FRAME + 2)[1:-1], axis=1)) ** 2
+    bins = power[:, 1:]                                 # drop DC: 256 bins
+    pooled = bins.reshape(n, STFT_BANDS, -1).mean(axis=2)
+    return np.log10(pooled + 1e-12)
+
+
+def windows(spec: np.ndarray) -> np.ndarray:
+    """Windows of WINDOW_FRAMES frames every WINDOW_STEP, flattened; a recording shorter
+    than one window gives one window padded with its own mean frame."""
+    if len(spec) < WINDOW_FRAMES:
+        pad = np.repeat(spec.mean(axis=0, keepdims=True), WINDOW_FRAMES - len(spec), axis=0)
+        spec = np.concatenate([spec, pad])
+    starts = range(0, len(spec) - WINDOW_FRAMES + 1, WINDOW_STEP)
+    return np.stack([spec[s:s + WINDOW_FRAMES].ravel() for s in starts])
+
+
+@dataclass
+class VibrationResult:
+    accuracy: float
+    """Per window (the paper's sequences) on the test windows."""
+    n_train: int
+    n_test: int
+    split: str
+
+
+def paper_vibration(recordings: list[np.ndarray], labels: np.ndarray, classes: list[str], *,
+                    split: str = "windows", seed: int = 0, hidden: tuple[int, ...] = (64,),
+                    test_fraction: float = PAPER_TEST_FRACTION, epochs: int = 60
+                    ) -> VibrationResult:
+    """The paper's classifier on 44.1 kHz recordings: spectrogram windows -> MLP.
+
+    ``split``: "windows" (the paper's: a random split of the windows, whose neighbours from
+    the same recording overlap the test ones) or "recordings" (whole recordings held out)."""
+    from ..models.mlp import train_mlp
+
+    per = [windows(spectrogram(x)) for x in recordings]
+    x = np.concatenate(per)
+    y = np.concatenate([np.full(len(w), lab) for w, lab in zip(per, labels, strict=True)])
+    rec = np.concatenate([np.full(len(w), i) for i, w in enumerate(per)])
+    if split == "windows":
+        tr, te = random_split(len(x), seed, test_fraction)
+    elif split == "recordings":
+        rtr, rte = random_split(len(per), seed, test_fraction)
+        tr, te = np.flatnonzero(np.isin(rec, rtr)), np.flatnonzero(np.isin(rec, rte))
+    else:
+        raise ValueError(f"unknown split {split!r}: windows or recordings")
+    m = train_mlp(x[tr], y[tr], hidden=hidden, task="classification", classes=list(classes),
+                  epochs=epochs, seed=seed)
+    acc = float(np.mean(np.argmax(m.forward(x[te]), axis=1) == y[te]))
+    return VibrationResult(acc, len(tr), len(te), split)
+
+
+def read_folder(folder: str | os.PathLike) -> tuple[list[np.ndarray], np.ndarray, list[str]]:
+    """A class-per-sub-folder set of 44.1 kHz WAV files (what ``fingertip sim dataset``
+    writes): recordings, labels, class names."""
+    import soundfile as sf
+
+    root = Path(folder)
+    classes = sorted(p.name for p in root.iterdir() if p.is_dir())
+    xs, ys = [], []
+    for k, c in enumerate(classes):
+        for f in sorted((root / c).glob("*.wav")):
+            x, fs = sf.read(f, dtype="float64")
+            if fs != 44100:
+                raise ValueError(f"{f}: {fs} Hz; the paper's method here takes 44.1 kHz")
+            xs.append(x)
+            ys.append(k)
+    return xs, np.asarray(ys), classes

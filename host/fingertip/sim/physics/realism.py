@@ -1,0 +1,309 @@
+"""Error sources of a real fingertip's strain path, each switchable (``realism.toml``).
+
+The ideal strain model (:mod:`.strain`) already has the HX711's white noise, hysteresis, a
+short creep, offsets and the per-unit spread. This module adds what a real calibration
+session also meets, with sizes from datasheets or published measurements
+(docs/simulation.md, "Error budget"):
+
+- ``hx711_noise``: the datasheet's input noise (switches the existing noise);
+- ``hx711_drift``: the HX711's offset and gain temperature coefficients;
+- ``thermal``: the room's temperature over a session (HVAC cycle and daily drift) acting on
+  the gauges' thermal output, gauge-factor and span coefficients, and on the bridge
+  completion resistors' TCR;
+- ``creep``: slow creep of the PLA prism and the glue line (Prony series);
+- ``skin``: the silicone skin's stress relaxation under a held indentation and the vertical
+  friction force its shear carries when the cap tilts (used by the calibration sweep);
+- ``contact``: spread of the real contact height and direction, and the bending moment of a
+  vertical force at the side of the fingertip;
+- ``unit_spread``: glue and placement spread between units (fingertip.toml [variation]);
+- ``mount``: relaxation of the TPU base that carries part of the moment past the gauges.
+
+``Realism()`` has every source on (the default of every virtual unit); ``Realism.none()``
+is the ideal sensor; ``Realism().without("creep")`` drops one, for an ablation.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields
+from functools import lru_cache
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+from .scan import affine_scan
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
+
+REALISM_FILE = "realism.toml"
+SCHEMA = 1
+
+
+@dataclass(frozen=True)
+class Realism:
+    """Which of the documented error sources a virtual unit has (all by default)."""
+
+    hx711_noise: bool = True
+    hx711_drift: bool = True
+    thermal: bool = True
+    creep: bool = True
+    skin: bool = True
+    contact: bool = True
+    unit_spread: bool = True
+    mount: bool = True
+
+    @classmethod
+    def sources(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))
+
+    @classmethod
+    def none(cls) -> Realism:
+        """The ideal sensor: none of the sources."""
+        return cls(**{name: False for name in cls.sources()})
+
+    def without(self, *names: str) -> Realism:
+        return dataclasses.replace(self, **{_checked(n): False for n in names})
+
+    def only(self, *names: str) -> Realism:
+        """Only the named sources (for "what does this one add" runs)."""
+        return dataclasses.replace(Realism.none(), **{_checked(n): True for n in names})
+
+    @property
+    def active(self) -> tuple[str, ...]:
+        return tuple(n for n in self.sources() if getattr(self, n))
+
+
+def _checked(name: str) -> str:
+    if name not in Realism.sources():
+        raise ValueError(f"unknown error source {name!r}; one of {', '.join(Realism.sources())}")
+    return name
+
+
+# --- parameters ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class HX711Drift:
+    offset_nv_per_k: float
+    gain_ppm_per_k: float
+
+
+@dataclass(frozen=True)
+class Thermal:
+    hvac_amplitude_k: float
+    hvac_period_s: tuple[float, ...]
+    drift_amplitude_k: float
+    drift_period_s: float
+    completion_tcr_ppm_per_k: float
+
+
+@dataclass(frozen=True)
+class Creep:
+    fraction: tuple[float, ...]
+    tau_s: tuple[float, ...]
+    unit_rel: float
+
+
+@dataclass(frozen=True)
+class Skin:
+    modulus_mpa: float
+    thickness_mm: float
+    relax_fraction: tuple[float, ...]
+    relax_tau_s: tuple[float, ...]
+    friction: float
+    indenter_diameter_mm: float
+
+    @property
+    def shear_stiffness_n_per_m(self) -> float:
+        """Shear stiffness of the skin under the indenter's patch: G A / t, G = E / 3."""
+        area = math.pi * (self.indenter_diameter_mm * 1e-3) ** 2 / 4
+        return self.modulus_mpa * 1e6 / 3 * area / (self.thickness_mm * 1e-3)
+
+    def relaxation(self, t_s: np.ndarray | float) -> np.ndarray:
+        """Relaxation modulus over its initial value, G(t) / G(0)."""
+        t = np.asarray(t_s, float)
+        g = np.asarray(self.relax_fraction)
+        tau = np.asarray(self.relax_tau_s)
+        return (1 - g.sum() + (g * np.exp(-t[..., None] / tau)).sum(-1))
+
+
+@dataclass(frozen=True)
+class Contact:
+    height_sd_mm: float
+    angle_sd_deg: float
+    surface_radius_mm: float
+
+
+@dataclass(frozen=True)
+class Mount:
+    relax_fraction: tuple[float, ...]
+    relax_tau_s: tuple[float, ...]
+
+
+_SECTIONS: dict[str, type] = {"hx711_drift": HX711Drift, "thermal": Thermal, "creep": Creep,
+                              "skin": Skin, "contact": Contact, "mount": Mount}
+
+
+@dataclass(frozen=True)
+class RealismParams:
+    hx711_drift: HX711Drift
+    thermal: Thermal
+    creep: Creep
+    skin: Skin
+    contact: Contact
+    mount: Mount
+
+
+def from_dict(data: dict[str, Any], where: str = REALISM_FILE) -> RealismParams:
+    if data.get("schema") != SCHEMA:
+        raise ValueError(f"{where}: schema {data.get('schema')!r}, expected {SCHEMA}")
+    tables = {k: v for k, v in data.items() if k != "schema"}
+    if set(tables) != set(_SECTIONS):
+        raise ValueError(f"{where}: tables {sorted(tables)}, expected {sorted(_SECTIONS)}")
+    out = {}
+    for name, cls in _SECTIONS.items():
+        table = tables[name]
+        keys = {f.name for f in fields(cls)}
+        if set(table) != keys:
+            raise ValueError(f"{where} [{name}]: unknown keys {sorted(set(table) - keys)}, "
+                             f"missing keys {sorted(keys - set(table))}")
+        out[name] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in table.items()})
+    p = RealismParams(**out)
+    for name in ("creep", "skin", "mount"):
+        sec = getattr(p, name)
+        frac = sec.fraction if name == "creep" else sec.relax_fraction
+        tau = sec.tau_s if name == "creep" else sec.relax_tau_s
+        if len(frac) != len(tau) or min(tau, default=1.0) <= 0:
+            raise ValueError(f"{where} [{name}]: fractions and times differ in length or a "
+                             f"time is not positive")
+    if sum(p.skin.relax_fraction) >= 1 or sum(p.mount.relax_fraction) >= 1:
+        raise ValueError(f"{where}: relaxation fractions must add up to less than 1")
+    return p
+
+
+@lru_cache(maxsize=1)
+def load() -> RealismParams:
+    text = resources.files(__package__).joinpath(REALISM_FILE).read_text(encoding="utf-8")
+    return from_dict(tomllib.loads(text))
+
+
+# --- one unit's draw ----------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class UnitRealism:
+    """What one unit draws for the sources (arrays: one value per channel)."""
+
+    offset_drift_v_per_k: np.ndarray
+    gain_drift_per_k: np.ndarray
+    completion_tcr_per_k: np.ndarray
+    """(4, 3): R_2, R_3, R_4 of each bridge."""
+    hvac_period_s: float
+    hvac_phase: float
+    drift_phase: float
+    creep_fraction: np.ndarray
+    """(4, K) Prony fractions of the slow creep (PLA, glue, TPU base) on the gauge strain."""
+    creep_tau_s: np.ndarray
+    """(K,)"""
+
+    @classmethod
+    def draw(cls, p: RealismParams, realism: Realism, shunt: float,
+             rng: np.random.Generator) -> UnitRealism:
+        """Draw every quantity (so the draw does not depend on the flags), then zero the
+        ones whose source is off. ``shunt``: the unit's mean moment fraction in the base."""
+        d, th, cr, mo = p.hx711_drift, p.thermal, p.creep, p.mount
+        off = rng.normal(0, d.offset_nv_per_k * 1e-9, 4)
+        gain = rng.normal(0, d.gain_ppm_per_k * 1e-6, 4)
+        # Within the datasheet's limit, uniformly (the limit is no standard deviation).
+        tcr = rng.uniform(-1, 1, (4, 3)) * th.completion_tcr_ppm_per_k * 1e-6
+        lo, hi = th.hvac_period_s
+        period = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+        ph1, ph2 = rng.uniform(0, 2 * math.pi, 2)
+        k_pla = np.asarray(cr.fraction)[None, :] * np.exp(
+            rng.normal(0, cr.unit_rel, (4, len(cr.fraction))) - cr.unit_rel ** 2 / 2)
+        # The base relaxes: the moment it carried (fraction `shunt`) moves to the prism.
+        k_mount = shunt * np.asarray(mo.relax_fraction)[None, :].repeat(4, 0)
+        if not realism.hx711_drift:
+            off, gain = off * 0, gain * 0
+        if not realism.thermal:
+            tcr = tcr * 0
+        if not realism.creep:
+            k_pla = k_pla * 0
+        if not realism.mount:
+            k_mount = k_mount * 0
+        return cls(off, gain, tcr, period, float(ph1), float(ph2),
+                   np.concatenate([k_pla, k_mount], axis=1),
+                   np.asarray(cr.tau_s + mo.relax_tau_s, float))
+
+
+def lab_temperature(p: RealismParams, unit: UnitRealism, reference_c: float):
+    """The room's temperature over a session: T(t) for t in seconds (array in, array out).
+
+    An HVAC cycle (its amplitude and a period drawn per unit) on a slow daily drift; both
+    start at a random phase, so the tare at t = 0 is at some point of the cycle."""
+    th = p.thermal
+
+    def temperature(t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, float)
+        return (reference_c
+                + th.hvac_amplitude_k * np.sin(2 * math.pi * t / unit.hvac_period_s
+                                               + unit.hvac_phase)
+                + th.drift_amplitude_k * np.sin(2 * math.pi * t / th.drift_period_s
+                                                + unit.drift_phase))
+
+    return temperature
+
+
+class SlowCreep:
+    """Prony creep on the gauge strain: y = x + sum_k f_k s_k, ds_k/dt = (x - s_k) / tau_k.
+
+    A step x = 1 at t = 0 reads 1 + sum f_k (1 - exp(-t / tau_k)). State carries across
+    calls (one continuous history); exact for inputs held between samples."""
+
+    def __init__(self, fraction: np.ndarray, tau_s: np.ndarray) -> None:
+        self.fraction = np.asarray(fraction, float)       # (4, K)
+        self.tau_s = np.asarray(tau_s, float)             # (K,)
+        self.reset()
+
+    @property
+    def active(self) -> bool:
+        return bool(np.any(self.fraction != 0))
+
+    def reset(self) -> None:
+        self.state = np.zeros(self.fraction.shape)
+        self.t_last: float | None = None
+
+    def apply(self, x: np.ndarray, t: np.ndarray, update: bool = True) -> np.ndarray:
+        if not self.active or x.shape[0] == 0:
+            return x
+        dt = np.diff(t, prepend=t[0] if self.t_last is None else self.t_last)
+        if np.any(dt < 0):
+            raise ValueError("times must not go backwards")
+        out = x.copy()
+        new_state = self.state.copy()
+        for k, tau in enumerate(self.tau_s):
+            a = np.exp(-dt / tau)[:, None].repeat(x.shape[1], 1)
+            s = affine_scan(a, (1 - a) * x, self.state[:, k])
+            out += self.fraction[:, k] * s
+            new_state[:, k] = s[-1]
+        if update:
+            self.state = new_state
+            self.t_last = float(t[-1])
+        return out
+
+
+def eccentric_strain(f: np.ndarray, fz: np.ndarray, point: np.ndarray, radius_m: float,
+                     ei: float) -> np.ndarray:
+    """Strain (N, 4) from the moment of a vertical force at the side of the fingertip.
+
+    The contact lies on the side the lateral force comes from (at -r F/|F|); a compressive
+    (downward, positive) ``fz`` there gives the moment r fz about the same axis as the
+    lateral force's, opposing it: eps = +(P . F/|F|) r fz / (E I) for gauge points P (N, 4, 2)
+    or (4, 2)."""
+    mag = np.hypot(f[:, 0], f[:, 1])
+    unit = np.divide(f, mag[:, None], out=np.zeros_like(f), where=mag[:, None] > 0)
+    proj = np.einsum("...ij,...j->...i", point, unit[:, None, :]) if point.ndim == 3 \
+        else unit @ point.T
+    return proj * (radius_m * np.asarray(fz, float))[:, None] / ei
