@@ -35,13 +35,17 @@ def test_matching_model_passes(tmp_path):
 @pytest.mark.parametrize("meta,kw,match", [
     ({"device_serial": "A1"}, {"serial": "B2"}, "calibrated on device 'A1'"),
     ({"units": "lbf"}, {}, "not newtons"),
-    ({"fingertip_model": "material"}, {}, "not a force model"),
     ({}, {"channels": 16}, "takes 4 channels, this fingertip streams 16"),
 ])
 def test_mismatch_refused_with_reason(tmp_path, meta, kw, match):
     fm = ForceModel(model(tmp_path, **meta))
     with pytest.raises(ModelMismatch, match=match):
         check_model(fm, **{"channels": 4, **kw})
+
+
+def test_other_kind_refused_on_opening(tmp_path):
+    with pytest.raises(ValueError, match="not a force model"):
+        ForceModel(model(tmp_path, fingertip_model="material"))
 
 
 def test_other_device_allowed_on_request(tmp_path):

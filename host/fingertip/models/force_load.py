@@ -39,9 +39,7 @@ def check_model(model: ForceModel, *, channels: int, serial: str = "", gain: int
     """Raise :class:`ModelMismatch` when ``model`` does not fit; return warnings."""
     m = model.metadata
     name = model.path.name
-    if m.get("fingertip_model", "force") != "force":
-        raise ModelMismatch(f"{name} is a {m.get('fingertip_model')} model, not a force "
-                            "model (written by `fingertip calibrate fit` or `record`)")
+    # Another kind of model (a classifier) is already refused by ForceModel itself.
     if model.channels != channels:
         raise ModelMismatch(f"{name} takes {model.channels} channels, this fingertip streams "
                             f"{channels}")
