@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from fingertip.demo import _truth, demo_scene, run_demo
+from fingertip.demo import demo_scene, rim_truth, run_demo
 
 
 @pytest.mark.slow
@@ -38,6 +38,6 @@ def test_demo_on_the_firmware(tmp_path):
     assert 1.6 < mag.max() < 2.6 and np.median(mag[:20]) < 0.15
     assert [m for _, _, m in r.materials][:1] == ["coarse_fabric"]
     onsets = [e.time for e in r.events if e.kind == "vibration_onset"]
-    rims = _truth(demo_scene())["rims"]
+    rims = rim_truth(demo_scene())["rims"]
     for rim in rims:
         assert min(abs(o - rim) for o in onsets) < 0.02, (rim, onsets)

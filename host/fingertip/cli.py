@@ -258,7 +258,7 @@ def _force_text(est) -> str:
 
 
 def _cmd_sim_device(args: argparse.Namespace) -> int:
-    """Serve a virtual fingertip (pure Python, the firmware's twin) on a pseudo-terminal."""
+    """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
     import signal
     import threading
 

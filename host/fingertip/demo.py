@@ -2,9 +2,10 @@
 
 A scripted scene (a press, a slide over two materials, a slide down a stack of paper cups)
 drives the physics of a virtual fingertip; its strain signals go into the real firmware in
-simavr (or the firmware's pure-Python twin) and come back through the host bridge over a
-pty, its piezo signal through the audio capture interface. The bridge tares, streams (a live
-line in the terminal), the events are detected, and a PNG summary is written.
+simavr (or the same device logic built for the host, on a simulated board) and come back
+through the host bridge over a pty, its piezo signal through the audio capture interface.
+The bridge tares, streams (a live line in the terminal), the events are detected, and a PNG
+summary is written.
 """
 from __future__ import annotations
 
@@ -107,7 +108,8 @@ def _firmware_device(sensor: VirtualStrainSensor, scene, duration_s: float):
 
 
 def _python_device(sensor: VirtualStrainSensor, scene, duration_s: float):
-    """The firmware's pure-Python twin on a pty, reading the physics at each conversion."""
+    """The firmware's device logic built for the host (VirtualFirmware) on a pty, reading
+    the physics at each conversion."""
     from .sim.pty_device import PtyDevice
 
     start = {"us": 1 << 62}  # scene start in device time: far away until armed
@@ -120,7 +122,7 @@ def _python_device(sensor: VirtualStrainSensor, scene, duration_s: float):
         return src_inner["fn"](t_us)
 
     dev = PtyDevice(VirtualFirmware(4, source=source)).start()
-    ft = Fingertip(dev.port, queue_size=100_000, name="virtual fingertip (Python twin)").open()
+    ft = Fingertip(dev.port, queue_size=100_000, name="virtual fingertip (host build)").open()
 
     def arm() -> float:
         now_us = dev._device_us()
@@ -128,12 +130,12 @@ def _python_device(sensor: VirtualStrainSensor, scene, duration_s: float):
         src_inner["fn"] = sensor.as_source(scene, t0_us=start["us"], rate_sps=80)
         return time.monotonic() + LEAD_S
 
-    return ft, arm, dev.stop, "the firmware's pure-Python twin"
+    return ft, arm, dev.stop, "the firmware's device logic built for the host"
 
 
 def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None = None,
              seed: int = 7, live: bool | None = None) -> DemoResult:
-    """Run the demo; ``use_firmware`` None = simavr when built, else the Python twin."""
+    """Run the demo; ``use_firmware`` None = simavr when built, else the host build."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     scene = demo_scene()
@@ -146,7 +148,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
             firmware_elf(4)
             use_firmware = True
         except HarnessError as e:
-            log.warning("%s; using the firmware's Python twin instead", e)
+            log.warning("%s; using the firmware's host build instead", e)
             use_firmware = False
     live_line = _Live(sys.stderr.isatty() if live is None else live)
     print(f"simulating the audio of a {scene.duration_s:.1f} s scene ...", file=sys.stderr)
@@ -248,7 +250,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     rec_stats = rec.close()
     stats["recording_messages"] = int(sum(rec_stats.written.values()))
     stats["recording_dropped"] = int(sum(rec_stats.dropped.values()))
-    truth = _truth(scene)
+    truth = rim_truth(scene)
     first = len(frames) - len(scene_frames)
     f_arr = np.array(forces[first:], dtype=np.float64).reshape(-1, 2)
     materials = _material_segments(material, audio, fs, audio_t0, events)
@@ -328,7 +330,7 @@ def _material_segments(clf, audio: np.ndarray, fs: float, t0: float,
     return out
 
 
-def _truth(scene: Script) -> dict[str, list[float]]:
+def rim_truth(scene: Script) -> dict[str, list[float]]:
     """Ground-truth rim times of the cup slide on the script's time axis."""
     rims: list[float] = []
     for off, part in zip(scene.offsets_s, scene.parts, strict=True):

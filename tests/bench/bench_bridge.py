@@ -1,7 +1,7 @@
 """The host bridge's cost and latency: four fingertips at 80 Hz, 44.1 kHz audio, a force model.
 
 The four virtual fingertips run in their own processes (`fingertip sim device`, the
-firmware's twin on a pty), so this process's CPU time is the bridge alone: four readers
+firmware's device logic on a pty), so this process's CPU time is the bridge alone: four readers
 decoding and mapping clocks, one simulated sound card delivering 441-frame blocks into the
 capture ring (its tone comes from a table: a real card's samples arrive by DMA), and a
 force estimate per frame in the frame callback: the MLP force model

@@ -5,7 +5,10 @@
   repeats, whole ``simulate`` call).
 - One scene, the press, as force only (its default) and as force + vibration, measured
   side by side: what "model only what a scene needs" saves.
-- ``sim_twin_device_realtime_factor``: the pure-Python device (VirtualFirmware, 4 channels,
+- ``sim_twin_device_us_per_frame``: CPU time of the virtual device alone (VirtualFirmware:
+  the firmware's C++ through the device library), 4 channels streaming at 80 SPS, a constant
+  source, advanced one frame at a time, bytes not decoded: what the device logic costs.
+- ``sim_twin_device_realtime_factor``: the virtual device (VirtualFirmware, 4 channels,
   80 SPS, streaming) with a physics source (a virtual unit under a press), advanced as fast
   as possible in 10 ms steps, its bytes decoded by the host's StreamDecoder as a bridge
   would; simulated seconds per wall second.
@@ -50,6 +53,19 @@ def twin_realtime_factor(seconds: float = TWIN_SECONDS, seed: int = 1) -> float:
     return seconds / wall
 
 
+def twin_us_per_frame(seconds: float = 20.0) -> float:
+    """CPU microseconds per SAMPLE frame of the virtual device alone."""
+    fw = VirtualFirmware(4, source=lambda t: (1000, -2000, 3000, 4))
+    fw.boot()
+    fw.receive(encode(Start(1)))
+    c0 = time.process_time()
+    t, n = 0, 0
+    while t < seconds * 1e6:
+        t += 12_500
+        n += len(fw.advance(t)) > 0
+    return (time.process_time() - c0) / n * 1e6
+
+
 def run() -> dict[str, float]:
     try:
         os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
@@ -62,6 +78,8 @@ def run() -> dict[str, float]:
     out["sim_realtime_factor_press_force_only"] = round(force_only, 2)
     out["sim_realtime_factor_press_force_vibration"] = round(both, 2)
     out["sim_press_vibration_cost_ratio"] = round(force_only / both, 1)
+    out["sim_twin_device_us_per_frame"] = round(
+        statistics.median(twin_us_per_frame() for _ in range(5)), 2)
     twin_realtime_factor(1.0)  # warm up
     out["sim_twin_device_realtime_factor"] = round(
         statistics.median(twin_realtime_factor() for _ in range(REPEATS)), 2)
@@ -85,7 +103,9 @@ DESCRIPTION = {
                                                   "channel as well", None),
     "sim_press_vibration_cost_ratio": ("how many times cheaper the force-only press is: what "
                                        "'model only what a scene needs' saves", (">", 1.0)),
-    "sim_twin_device_realtime_factor": ("simulated s per wall s: pure-Python device, 4 "
+    "sim_twin_device_us_per_frame": ("CPU us per frame of the virtual device alone (the "
+                                     "firmware's C++ via ctypes), 4 channels, 80 SPS", None),
+    "sim_twin_device_realtime_factor": ("simulated s per wall s: the virtual device, 4 "
                                         "channels, 80 SPS, physics source, decoded, "
                                         "as fast as possible", (">=", 1.0)),
 }

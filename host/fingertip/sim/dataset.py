@@ -35,6 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .. import __version__
+from ..protocol.messages import INT24_MAX, INT24_MIN
 from .physics import (
     BOX_CONTENTS,
     PAPER_SEVEN,
@@ -54,7 +55,6 @@ from .physics.vibration import good_fft_size
 GENERATOR = "fingertip sim dataset"
 META_FILE = "dataset.json"
 MANIFEST_FILE = "manifest.csv"
-INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
 
 KINDS = ("materials", "shake", "cups")
 DEFAULT_RECORDINGS = {"materials": 20, "shake": 20, "cups": 36}

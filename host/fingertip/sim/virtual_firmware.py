@@ -37,7 +37,8 @@ def __getattr__(name: str) -> object:
 class VirtualFirmware:
     """The Uno firmware's device logic, frame for frame, given the chips' inputs.
 
-    ``dead_mask``: chips that never become ready (missing or broken).
+    ``dead_mask``: chips that never become ready (missing or broken). One thread runs a
+    device (boot, receive, advance); others may read its observers.
     """
 
     def __init__(self, channels: int = 4, source: CountsSource | None = None,
