@@ -360,9 +360,11 @@ def record_from(args: argparse.Namespace) -> int:
     except ExtraMissing as e:
         log.error("%s", e)
         return 2
+    out = Path(args.output)
+    existed = out.exists()
     try:
         names = [check_name(s.strip()) for s in args.name.split(",")]
-        rec = Recorder(Path(args.output), flush_interval=args.flush_interval,
+        rec = Recorder(out, flush_interval=args.flush_interval,
                        flush_bytes=args.flush_kb * 1024, compression=args.compression,
                        overwrite=args.force, fsync=args.fsync).start()
     except (ValueError, RecorderError) as e:
@@ -372,8 +374,11 @@ def record_from(args: argparse.Namespace) -> int:
         try:
             sink = NetworkRecorder(rec, args.from_net, names, connect=args.zenoh_connect,
                                    listen=args.zenoh_listen)
-        except Exception as e:  # a missing extra, DDS or Zenoh that cannot start
+        except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
             log.error("%s", e)
+            rec.close()
+            if not existed:  # nothing was recorded: leave no empty file behind
+                out.unlink(missing_ok=True)
             return 2
         print(f"recording {', '.join(names)} from {args.from_net} to {args.output}"
               + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
