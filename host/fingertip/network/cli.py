@@ -372,8 +372,9 @@ def record_from(args: argparse.Namespace) -> int:
         return 2
     try:
         try:
-            sink = NetworkRecorder(rec, args.from_net, names, connect=args.zenoh_connect,
-                                   listen=args.zenoh_listen)
+            sink = NetworkRecorder(rec, args.from_net, names,
+                                   connect=getattr(args, "zenoh_connect", None),
+                                   listen=getattr(args, "zenoh_listen", None))
         except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
             log.error("%s", e)
             rec.close()
@@ -408,6 +409,17 @@ def add_zenoh_args(p: argparse.ArgumentParser) -> None:
 
 
 def add_parsers(sub) -> None:
+    """Add ``publish``, and the Zenoh options of ``record --from`` to ``record`` (added
+    before, by the record package, which does not import this one)."""
+    rec = sub.choices.get("record")
+    if rec is not None:
+        add_zenoh_args(rec)
+        local = rec.get_default("func")
+
+        def record(args: argparse.Namespace) -> int:
+            return record_from(args) if args.from_net else local(args)
+        record.__doc__ = local.__doc__
+        rec.set_defaults(func=record)
     p = sub.add_parser("publish", help="publish fingertips live: ROS 2 (DDS, Zenoh) or LSL",
                        description=_cmd_publish.__doc__)
     g = p.add_mutually_exclusive_group(required=True)
