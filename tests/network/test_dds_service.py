@@ -93,7 +93,7 @@ def test_read_only_serves_no_tare():
         seen = []
         subscribe(node, ["index"], lambda n, k, d: seen.append(k), kinds=("raw",))
         client = Client(node)
-        t_end = time.monotonic() + 3.0
+        t_end = time.monotonic() + 20.0  # the publisher's start-up, on a loaded machine
         while not seen and time.monotonic() < t_end:
             time.sleep(0.05)
         assert seen, "the publisher is not publishing"
