@@ -12,7 +12,7 @@ from fingertip.network.dds import RELIABLE, DdsNode, decode_trigger_reply, encod
 from fingertip.network.ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE
 from fingertip.record import schemas as S
 
-from .conftest import start
+from .conftest import start, wait_line
 
 SERVICE = "/fingertip/index/tare"
 
@@ -117,7 +117,7 @@ def test_publisher_outlives_a_killed_subscriber(tmp_path):
         first.communicate(timeout=10)
         second = start("record", "--from", "dds", "--name", "index", "-o",
                        str(tmp_path / "b.mcap"))
-        assert second.stderr.readline().startswith("recording index from dds")
+        wait_line(second, "recording index from dds")
         time.sleep(2.5)
         second.send_signal(signal.SIGTERM)
         _, err2 = second.communicate(timeout=20)
