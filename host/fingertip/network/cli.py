@@ -113,7 +113,15 @@ def _audio_source(args):
     from ..audio import FileSource, SimulatedSource, SoundDeviceSource
 
     if args.audio is not None:
-        dev = int(args.audio) if args.audio.isdigit() else args.audio
+        if args.audio == "paired":  # the card behind the same USB hub as the fingertip
+            from ..models.classify import sound_card_for_port
+
+            if not args.port:
+                raise ValueError("--audio paired needs --port (the sound card is found "
+                                 "next to it on the USB hub)")
+            dev: int | str = sound_card_for_port(args.port[0])
+        else:
+            dev = int(args.audio) if args.audio.isdigit() else args.audio
         return SoundDeviceSource(dev, args.audio_rate, channels=1, dtype="int16")
     if args.audio_file:
         return FileSource(args.audio_file, realtime=True)
@@ -158,8 +166,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             if args.record:
                 rec = Recorder(args.record, overwrite=args.force).start()
                 stack.callback(rec.close)
-        except (ExtraMissing, ValueError, TransportError, DeviceNotFound, FingertipError,
-                ProtocolVersionError, AudioError, RecorderError, OSError) as e:
+        except (ExtraMissing, ValueError, LookupError, TransportError, DeviceNotFound,
+                FingertipError, ProtocolVersionError, AudioError, RecorderError, OSError) as e:
             log.error("%s", e)
             return 2
         except Exception as e:  # DdsError, ZenohError, LSL: the network could not start
@@ -444,7 +452,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--shake-model", metavar="MODEL.onnx",
                    help="the same with a shake model: `shake` events")
     a = p.add_mutually_exclusive_group()
-    a.add_argument("--audio", metavar="DEVICE", help="the sound card of the (first) fingertip")
+    a.add_argument("--audio", metavar="DEVICE",
+                   help="the sound card of the (first) fingertip: index, part of its name, "
+                        "or `paired` (the card on the same USB hub as --port)")
     a.add_argument("--audio-file", metavar="WAV", help="a WAV file as the microphone")
     a.add_argument("--virtual-audio", action="store_true", help="a simulated microphone")
     p.add_argument("--audio-rate", type=number(float, 0, lo_open=True), default=44100.0)
