@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -45,6 +46,10 @@ DESCRIPTION = {
     "publish_cpu_percent": ("CPU of the whole `fingertip publish` process (4 fingertips, "
                             "audio, force model, DDS), % of one core", ("<=", 8)),
     "network_seconds": ("length of each run", None),
+    "publish_bridge_only_cpu_percent": ("CPU of the 4 bridges + force model alone (no audio) "
+                                        "in one process, windows alternating with ...", None),
+    "publish_added_cpu_percent": ("... the same with the feed publishing raw and wrench over "
+                                  "DDS: what publishing adds, % of one core", None),
 }
 
 
@@ -95,6 +100,51 @@ def _one(transport: str, tmp: Path, model: Path) -> dict[str, float]:
             f"{transport}_publish_cpu_percent": round(cpu, 2)}
 
 
+def _cpu_self() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _added_by_publishing(tmp: Path, model_path: Path, windows: int = 3, window_s: float = 5.0
+                         ) -> tuple[float, float]:
+    """CPU % of this process running the 4 bridges + force model, without and with the feed
+    publishing over DDS (to a subscriber process), in alternating windows: what publishing
+    adds, apart from the bridge it rides on."""
+    from fingertip import Fingertip
+    from fingertip.models.force import ForceModel
+    from fingertip.network.dds import DdsTransport
+    from fingertip.network.feed import Feed
+
+    out = tmp / "added.json"
+    sub = subprocess.Popen([sys.executable, "-m", "tests.bench.network_subscriber", "dds",
+                            str(out), *NAMES], stdout=subprocess.PIPE, text=True)
+    sub.stdout.readline()
+    model = ForceModel(model_path)
+    fts = [Fingertip(str(tmp / f"ft{k}")).open() for k in range(4)]
+    feed = Feed(DdsTransport())
+    on = [False]
+    try:
+        for ft, name in zip(fts, NAMES, strict=True):
+            feed.add_fingertip(name, model)
+            ft.add_callback(lambda f, _n=name: feed.frame(_n, f) if on[0] else model(f.counts))
+            ft.start()
+        time.sleep(2.0)
+        shares: dict[bool, list[float]] = {False: [], True: []}
+        for _ in range(windows):
+            for state in (False, True):
+                on[0] = state
+                c0, w0 = _cpu_self(), time.monotonic()
+                time.sleep(window_s)
+                shares[state].append(100 * (_cpu_self() - c0) / (time.monotonic() - w0))
+    finally:
+        for ft in fts:
+            ft.close()
+        feed.transport.close()
+        sub.terminate()
+        sub.wait(timeout=30)
+    return float(np.median(shares[False])), float(np.median(shares[True]))
+
+
 def run() -> dict[str, float]:
     tmp = Path(tempfile.mkdtemp(prefix="bench-network-"))
     _force_model(tmp)
@@ -111,6 +161,9 @@ def run() -> dict[str, float]:
         figures: dict[str, float] = {}
         for transport in ("dds", "zenoh", "lsl"):
             figures.update(_one(transport, tmp, tmp / "force.onnx"))
+        bridge, publishing = _added_by_publishing(tmp, tmp / "force.onnx")
+        figures["publish_bridge_only_cpu_percent"] = round(bridge, 2)
+        figures["publish_added_cpu_percent"] = round(publishing - bridge, 2)
     finally:
         for p in devices:
             p.terminate()

@@ -35,3 +35,15 @@ def cli(*args: str) -> list[str]:
 def start(*args: str) -> subprocess.Popen:
     return subprocess.Popen(cli(*args), env=env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+
+
+def wait_line(proc: subprocess.Popen, prefix: str, max_lines: int = 50) -> None:
+    """Read ``proc``'s stderr up to the line starting with ``prefix`` (libraries may log
+    before it); fail if the process ends first."""
+    for _ in range(max_lines):
+        line = proc.stderr.readline()
+        if not line:
+            raise AssertionError(f"the process ended before printing {prefix!r}")
+        if line.startswith(prefix):
+            return
+    raise AssertionError(f"no line starting with {prefix!r}")

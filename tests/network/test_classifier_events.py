@@ -12,7 +12,7 @@ from fingertip.models.material import train_material
 from fingertip.record import schemas as S
 from fingertip.sim.physics import PAPER_SEVEN, Slide, simulate
 
-from .conftest import start
+from .conftest import start, wait_line
 from .test_dds_stream import by_topic
 
 
@@ -35,7 +35,7 @@ def test_material_predictions_are_published_as_events(tmp_path):
     local, remote = tmp_path / "local.mcap", tmp_path / "remote.mcap"
     sub = start("record", "--from", "dds", "--name", "index", "-o", str(remote))
     try:
-        assert sub.stderr.readline().startswith("recording index from dds")
+        wait_line(sub, "recording index from dds")
         pub = start("publish", "--virtual", "1", "--name", "index", "--virtual-audio",
                     "--material-model", str(model), "--duration", "3", "--record",
                     str(local), "--wait-subscribers", "1")

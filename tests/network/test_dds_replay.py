@@ -10,7 +10,7 @@ from fingertip.network.dds import SENSOR, DdsNode
 from fingertip.network.ros_types import CLOCK
 from fingertip.record import schemas as S
 
-from .conftest import start
+from .conftest import start, wait_line
 from .test_dds_stream import FORCE_MODEL, by_topic, unpadded
 
 
@@ -29,7 +29,7 @@ def test_replay_with_sim_time_publishes_the_recording_and_clock(tmp_path):
     node.reader("rt/clock", CLOCK, SENSOR, on_clock)
     sub = start("record", "--from", "dds", "--name", "index", "-o", str(remote))
     try:
-        assert sub.stderr.readline().startswith("recording index from dds")
+        wait_line(sub, "recording index from dds")
         pub = start("publish", "--replay", str(original), "--sim-time",
                     "--wait-subscribers", "1", "--speed", "2")
         _, err = pub.communicate(timeout=60)

@@ -12,7 +12,7 @@ from fingertip.network.dds import RELIABLE, DdsNode, decode_trigger_reply, encod
 from fingertip.network.ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE
 from fingertip.record import schemas as S
 
-from .conftest import start
+from .conftest import start, wait_line
 
 SERVICE = "/fingertip/index/tare"
 
@@ -93,7 +93,7 @@ def test_read_only_serves_no_tare():
         seen = []
         subscribe(node, ["index"], lambda n, k, d: seen.append(k), kinds=("raw",))
         client = Client(node)
-        t_end = time.monotonic() + 3.0
+        t_end = time.monotonic() + 20.0  # the publisher's start-up, on a loaded machine
         while not seen and time.monotonic() < t_end:
             time.sleep(0.05)
         assert seen, "the publisher is not publishing"
@@ -117,7 +117,7 @@ def test_publisher_outlives_a_killed_subscriber(tmp_path):
         first.communicate(timeout=10)
         second = start("record", "--from", "dds", "--name", "index", "-o",
                        str(tmp_path / "b.mcap"))
-        assert second.stderr.readline().startswith("recording index from dds")
+        wait_line(second, "recording index from dds")
         time.sleep(2.5)
         second.send_signal(signal.SIGTERM)
         _, err2 = second.communicate(timeout=20)

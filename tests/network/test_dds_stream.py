@@ -15,7 +15,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from fingertip.record import schemas as S
 from fingertip.record.reader import Recording
 
-from .conftest import ROOT, start
+from .conftest import ROOT, start, wait_line
 
 FORCE_MODEL = "tests.record.conftest:force_model"
 
@@ -84,11 +84,11 @@ def run_and_compare(tmp_path, transport: str, sub_args=(), pub_args=(), during=N
     sub = start("record", "--from", transport, "--name", "index", "-o", str(remote),
                 *sub_args)
     try:
-        time.sleep(1.0)
+        wait_line(sub, f"recording index from {transport}")
         pub = start("publish", "--transport", transport, "--virtual", "1", "--name", "index",
                     "--virtual-audio", "--force-model", FORCE_MODEL, "--duration", "10",
                     "--record", str(local), "--wait-subscribers", str(subscribers),
-                    *pub_args)
+                    "--wait-timeout", "30", *pub_args)
         if during is not None:
             during()
         out, err = pub.communicate(timeout=60)

@@ -176,3 +176,31 @@ def test_missing_extra_is_one_line_and_exit_2(tmp_path, mod, argv, extra):
     assert len(lines) == 1, r.stderr
     assert f"pip install 'fingertip[{extra}]'" in lines[0]
     assert not (tmp_path / "x.mcap").exists()  # nothing half-made left behind
+
+
+def test_bad_discovery_setting_is_one_line_and_leaves_no_file(tmp_path):
+    out = tmp_path / "x.mcap"
+    e = env()
+    e["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "MOON"
+    r = subprocess.run([sys.executable, "-m", "fingertip.cli", "record", "--from", "dds", "-o",
+                        str(out)], env=e, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2
+    assert [ln for ln in r.stderr.splitlines() if ln.strip()] == [
+        "ERROR fingertip: ROS_AUTOMATIC_DISCOVERY_RANGE='MOON': use SUBNET, LOCALHOST, OFF or "
+        "SYSTEM_DEFAULT"]
+    assert not out.exists()
+
+
+def test_paired_audio_needs_a_usb_port(tmp_path):
+    """--audio paired looks for the sound card on the fingertip's USB hub; a pty has none:
+    one line, exit 2 (the pairing itself needs USB hardware, not here)."""
+    from fingertip.sim import VirtualFirmware
+    from fingertip.sim.pty_device import PtyDevice
+
+    with PtyDevice(VirtualFirmware(4)) as dev:
+        r = subprocess.run([sys.executable, "-m", "fingertip.cli", "publish", "--port",
+                            dev.port, "--audio", "paired", "--duration", "1"], env=env(),
+                           capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2
+    lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "not a USB serial port" in lines[0], r.stderr

@@ -9,7 +9,7 @@ import pytest
 
 from fingertip.record import schemas as S
 
-from .conftest import start
+from .conftest import start, wait_line
 from .test_dds_stream import FORCE_MODEL, by_topic
 
 
@@ -24,10 +24,10 @@ def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
     local, remote = tmp_path / "local.mcap", tmp_path / "remote.mcap"
     sub = start("record", "--from", "lsl", "--name", "index", "-o", str(remote))
     try:
-        time.sleep(1.0)
+        wait_line(sub, "recording index from lsl")
         pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", "index",
                     "--virtual-audio", "--force-model", FORCE_MODEL, "--duration", "10",
-                    "--record", str(local), "--wait-subscribers", "1")
+                    "--record", str(local), "--wait-subscribers", "1", "--wait-timeout", "30")
         _, err = pub.communicate(timeout=60)
         assert pub.returncode == 0, err
         time.sleep(1.0)

@@ -31,3 +31,25 @@ def test_a_hand_of_two_and_a_wrench_reference():
 def test_reference_topic_must_be_absolute():
     with pytest.raises(ValueError, match="must start with"):
         WrenchReference("ft_sensor/wrench")
+
+
+def test_ros_domain_id_separates_networks(monkeypatch):
+    """ROS_DOMAIN_ID is honoured: a reader on another domain hears nothing."""
+    import os
+
+    domain = int(os.environ["ROS_DOMAIN_ID"])
+    same = WrenchReference("/fingertip/index/wrench")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain + 1))
+    other = WrenchReference("/fingertip/index/wrench")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+    try:
+        pub = start("publish", "--virtual", "1", "--name", "index", "--force-model",
+                    FORCE_MODEL, "--duration", "2")
+        got = same.get(timeout=20.0)
+        _, err = pub.communicate(timeout=60)
+        assert pub.returncode == 0, err
+        assert got is not None and got.frame_id == "index"
+        assert other.get(timeout=0.5) is None
+    finally:
+        same.close()
+        other.close()

@@ -31,29 +31,36 @@ def test_every_message_of_a_10s_run_arrives_over_zenoh(tmp_path):
     attachments: dict[str, list] = defaultdict(list)
     tokens: list[str] = []
 
+    done = threading.Event()
+
     def watch() -> None:
         # Another subscriber, in this process, connected to the publisher (peer mode).
         node = Z.ZenohNode(connect=[endpoint])
         try:
             node.subscribe(["index"], lambda n, k, d: None,
                            on_attachment=lambda n, k, a: attachments[k].append(a))
-            time.sleep(3.0)
-            sel = f"@ros2_lv/{node.domain}/**"
+            t_end = time.monotonic() + 30
+            while not attachments["raw"] and time.monotonic() < t_end:
+                time.sleep(0.1)
+            sel = f"@ros2_lv/{node.domain}/**"  # asked while the publisher is streaming
             tokens.extend(str(r.ok.key_expr) for r in node.session.liveliness().get(sel)
                           if r.ok is not None)
-            time.sleep(5.0)
+            done.wait(60)
         finally:
             node.close()
 
     t = threading.Thread(target=watch)
-    sent = run_and_compare(tmp_path, "zenoh", sub_args=("--zenoh-connect", endpoint),
-                           pub_args=("--zenoh-listen", endpoint), during=t.start,
-                           subscribers=2)
-    t.join(timeout=20)
+    try:
+        sent = run_and_compare(tmp_path, "zenoh", sub_args=("--zenoh-connect", endpoint),
+                               pub_args=("--zenoh-listen", endpoint), during=t.start,
+                               subscribers=2)
+    finally:
+        done.set()
+        t.join(timeout=20)
     # Attachments: 33 bytes (checked by the parser), one GID per publisher, sequence numbers
     # counting up by one from where this subscriber joined, timestamps near the stamps.
     raw = attachments["raw"]
-    assert len(raw) >= 200  # the watcher listens for about 8 s of the run
+    assert len(raw) >= 400  # the publisher waited for both subscribers: about 10 s of frames
     seqs = [a[0] for a in raw]
     assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
     assert len({a[2] for a in raw}) == 1 and len(raw[0][2]) == 16

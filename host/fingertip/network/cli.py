@@ -113,7 +113,15 @@ def _audio_source(args):
     from ..audio import FileSource, SimulatedSource, SoundDeviceSource
 
     if args.audio is not None:
-        dev = int(args.audio) if args.audio.isdigit() else args.audio
+        if args.audio == "paired":  # the card behind the same USB hub as the fingertip
+            from ..models.classify import sound_card_for_port
+
+            if not args.port:
+                raise ValueError("--audio paired needs --port (the sound card is found "
+                                 "next to it on the USB hub)")
+            dev: int | str = sound_card_for_port(args.port[0])
+        else:
+            dev = int(args.audio) if args.audio.isdigit() else args.audio
         return SoundDeviceSource(dev, args.audio_rate, channels=1, dtype="int16")
     if args.audio_file:
         return FileSource(args.audio_file, realtime=True)
@@ -158,8 +166,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             if args.record:
                 rec = Recorder(args.record, overwrite=args.force).start()
                 stack.callback(rec.close)
-        except (ExtraMissing, ValueError, TransportError, DeviceNotFound, FingertipError,
-                ProtocolVersionError, AudioError, RecorderError, OSError) as e:
+        except (ExtraMissing, ValueError, LookupError, TransportError, DeviceNotFound,
+                FingertipError, ProtocolVersionError, AudioError, RecorderError, OSError) as e:
             log.error("%s", e)
             return 2
         except Exception as e:  # DdsError, ZenohError, LSL: the network could not start
@@ -360,9 +368,11 @@ def record_from(args: argparse.Namespace) -> int:
     except ExtraMissing as e:
         log.error("%s", e)
         return 2
+    out = Path(args.output)
+    existed = out.exists()
     try:
         names = [check_name(s.strip()) for s in args.name.split(",")]
-        rec = Recorder(Path(args.output), flush_interval=args.flush_interval,
+        rec = Recorder(out, flush_interval=args.flush_interval,
                        flush_bytes=args.flush_kb * 1024, compression=args.compression,
                        overwrite=args.force, fsync=args.fsync).start()
     except (ValueError, RecorderError) as e:
@@ -370,10 +380,14 @@ def record_from(args: argparse.Namespace) -> int:
         return 2
     try:
         try:
-            sink = NetworkRecorder(rec, args.from_net, names, connect=args.zenoh_connect,
-                                   listen=args.zenoh_listen)
-        except Exception as e:  # a missing extra, DDS or Zenoh that cannot start
+            sink = NetworkRecorder(rec, args.from_net, names,
+                                   connect=getattr(args, "zenoh_connect", None),
+                                   listen=getattr(args, "zenoh_listen", None))
+        except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
             log.error("%s", e)
+            rec.close()
+            if not existed:  # nothing was recorded: leave no empty file behind
+                out.unlink(missing_ok=True)
             return 2
         print(f"recording {', '.join(names)} from {args.from_net} to {args.output}"
               + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
@@ -403,6 +417,17 @@ def add_zenoh_args(p: argparse.ArgumentParser) -> None:
 
 
 def add_parsers(sub) -> None:
+    """Add ``publish``, and the Zenoh options of ``record --from`` to ``record`` (added
+    before, by the record package, which does not import this one)."""
+    rec = sub.choices.get("record")
+    if rec is not None:
+        add_zenoh_args(rec)
+        local = rec.get_default("func")
+
+        def record(args: argparse.Namespace) -> int:
+            return record_from(args) if args.from_net else local(args)
+        record.__doc__ = local.__doc__
+        rec.set_defaults(func=record)
     p = sub.add_parser("publish", help="publish fingertips live: ROS 2 (DDS, Zenoh) or LSL",
                        description=_cmd_publish.__doc__)
     g = p.add_mutually_exclusive_group(required=True)
@@ -427,7 +452,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--shake-model", metavar="MODEL.onnx",
                    help="the same with a shake model: `shake` events")
     a = p.add_mutually_exclusive_group()
-    a.add_argument("--audio", metavar="DEVICE", help="the sound card of the (first) fingertip")
+    a.add_argument("--audio", metavar="DEVICE",
+                   help="the sound card of the (first) fingertip: index, part of its name, "
+                        "or `paired` (the card on the same USB hub as --port)")
     a.add_argument("--audio-file", metavar="WAV", help="a WAV file as the microphone")
     a.add_argument("--virtual-audio", action="store_true", help="a simulated microphone")
     p.add_argument("--audio-rate", type=number(float, 0, lo_open=True), default=44100.0)

@@ -59,6 +59,7 @@ class Feed:
             transport.timebase = self.timebase
         self.published: Counter[str] = Counter()
         self.errors: Counter[str] = Counter()
+        self._lock = threading.Lock()
         self._models: dict[str, ForceModel | None] = {}
         self._detach: list[Callable[[], None]] = []
         self._pumps: list[threading.Thread] = []
@@ -91,10 +92,12 @@ class Feed:
         try:
             self.transport.publish(name, kind, msg)
         except Exception as e:  # a network hiccup must not reach the device's thread
-            self.errors[kind] += 1
+            with self._lock:
+                self.errors[kind] += 1
             self._tell_once(f"{kind}-{name}", "%s %s: publishing failed (%s)", name, kind, e)
         else:
-            self.published[S.topic(name, kind)] += 1
+            with self._lock:  # several threads publish (readers, audio pump, services)
+                self.published[S.topic(name, kind)] += 1
 
     def frame(self, name: str, frame: Frame) -> None:
         raw = frame_message(name, frame, self.timebase)
@@ -105,7 +108,8 @@ class Feed:
         try:
             force = xyz(model(frame.counts))
         except Exception as e:  # one frame the model cannot take: count it, go on
-            self.errors["force_model"] += 1
+            with self._lock:
+                self.errors["force_model"] += 1
             self._tell_once(f"model-{name}", "%s: force model failed (%s)", name, e)
             return
         self._send(name, "wrench", S.WrenchMsg(raw.stamp_ns, name, force))
@@ -118,7 +122,8 @@ class Feed:
     def audio(self, name: str, chunk: Chunk) -> None:
         payload = audio_payload(chunk.samples)
         if payload is None:
-            self.errors["audio"] += 1
+            with self._lock:
+                self.errors["audio"] += 1
             self._tell_once(f"audio-{name}", "%s: audio of this dtype cannot be published", name)
             return
         encoding, data = payload

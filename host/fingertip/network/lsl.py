@@ -153,6 +153,16 @@ class LslReceiver:
             return
         inlet = lsl.StreamInlet(found[0], max_buflen=360, recover=True,
                                 processing_flags=lsl.proc_clocksync)
+        # The first clock offset takes about half a second: take it before the data
+        # connection opens (the publisher may be waiting for it to start streaming), so
+        # that the first samples do not wait it out.
+        from pylsl.util import TimeoutError as LslTimeout
+
+        try:
+            inlet.time_correction(timeout=5.0)
+        except LslTimeout:
+            log.warning("%s: no clock offset from the outlet yet", stream_name(name, kind))
+        inlet.open_stream(timeout=10.0)
         info = inlet.info()
         rate, nch = info.nominal_srate(), info.channel_count()
         audio_fmt = {lsl.cf_int16: "S16LE", lsl.cf_int32: "S32LE",

@@ -91,6 +91,10 @@ class ZenohNode:
         conf.insert_json5("mode", '"peer"')
         if connect:
             conf.insert_json5("connect/endpoints", json.dumps(connect))
+            # A router or peer that is not up yet (or restarts) is found again within a
+            # second, not after Zenoh's default back-off of up to 4 s.
+            conf.insert_json5("connect/retry", '{"period_init_ms": 200, "period_max_ms": '
+                                               '1000, "period_increase_factor": 1.5}')
         if listen:
             conf.insert_json5("listen/endpoints", json.dumps(listen))
         if connect or listen:  # explicit endpoints: no need to shout on the network

@@ -62,10 +62,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from .schemas import check_name
 
     out = Path(args.output)
-    if args.from_net:
-        from ..network.cli import record_from
-
-        return record_from(args)
+    if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
+        log.error("record --from is part of the `fingertip` command: run `fingertip record "
+                  "--from %s ...`", args.from_net)
+        return 2
     try:
         check_name(args.name)
         onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
@@ -327,9 +327,6 @@ def add_parsers(sub) -> None:
                         "comma-separated fingertips)")
     r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
                    help="the recording to write")
-    from ..network.cli import add_zenoh_args
-
-    add_zenoh_args(r)
     r.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",
                    help="stop after S seconds (default: at Ctrl-C)")
     a = r.add_mutually_exclusive_group()
