@@ -23,7 +23,8 @@ CLEAN_UNITS = 50
 
 def check_unit(seed: int, faults=(), prompt: bool = True, speed: float = SPEED):
     unit = VirtualUnit(seed, parse_faults(list(faults)))
-    with PtyDevice(unit.firmware, speed=speed) as dev, Fingertip(dev.port) as ft:
+    with PtyDevice(unit.firmware, speed=speed) as dev, \
+            Fingertip(dev.port, command_timeout=2.0) as ft:
         guide = SimGuide(unit) if prompt else NoPromptGuide()
         return run_check(DeviceProbe(ft), guide, SimAudio(unit))
 

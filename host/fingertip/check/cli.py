@@ -74,7 +74,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
                 port, guide, audio = stack.enter_context(_virtual(args))
                 if args.no_prompt:
                     guide = NoPromptGuide()
-                ft = stack.enter_context(Fingertip(port))
+                ft = stack.enter_context(Fingertip(port, command_timeout=2.0))
                 probe = DeviceProbe(ft)
             else:
                 ft = Fingertip(args.port) if args.port else Fingertip(serial_number=args.serial)
@@ -96,6 +96,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("cannot write %s: %s", args.report, e.strerror or e)
         return 2
+    if args.plot and "rest" in report.recorded:
+        from .plot import plot_check
+
+        plot_check(report.recorded["rest"], report.recorded.get("responses", {}), args.plot,
+                   "fingertip check: " + ("all passed" if report.ok else
+                                          "failed: " + ", ".join(sorted(report.faults))))
     if args.json:
         print(json.dumps(report.as_dict(), default=str))
     else:
@@ -117,6 +123,8 @@ def add_parsers(sub) -> None:
     c.add_argument("--report", default="check-report.json", metavar="FILE.json",
                    help="where to write the JSON report (default check-report.json)")
     c.add_argument("--json", action="store_true", help="print the report as JSON")
+    c.add_argument("--plot", metavar="FILE.png",
+                   help="also a picture of the rest noise and the presses")
     c.add_argument("--audio-device", metavar="NAME",
                    help="the piezo's sound card (default: the card paired with the port)")
     c.add_argument("--no-audio", action="store_true", help="do not check the piezo")
