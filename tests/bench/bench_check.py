@@ -31,7 +31,7 @@ CLEAN_UNITS = 50
 OFFSET_SEEDS = range(5)
 
 
-def _check(seed: int, faults=(), speed: float = 6.0):
+def _check(seed: int, faults=(), speed: float = 4.0):
     unit = VirtualUnit(seed, parse_faults(list(faults)))
     with PtyDevice(unit.firmware, speed=speed) as dev, \
             Fingertip(dev.port, command_timeout=2.0) as ft:
@@ -104,7 +104,7 @@ _timing: dict[str, float] = {}
 
 def run() -> dict[str, float]:
     found = sum(_check(11, [f]).faults == {f} for f in FAULTS)
-    false = sum(bool(_check(1000 + k, speed=8.0).failures) for k in range(CLEAN_UNITS))
+    false = sum(bool(_check(1000 + k).failures) for k in range(CLEAN_UNITS))
     t0 = time.monotonic()
     rep = _check(0, speed=1.0)
     secs = time.monotonic() - t0
