@@ -8,7 +8,8 @@ import numpy as np
 
 from . import limits as L
 from .results import FAIL, PASS, SKIP, WARN
-from .signals import Segment, make_result
+from .signals import Segment
+from .signals import make_result as _r
 
 MAINS = (50.0, 60.0)
 HARMONICS = 5
@@ -85,24 +86,24 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
     delay between a tap in force and in sound. ``t0``: time of the first audio sample in the
     clock of ``force_taps``."""
     if audio is None:
-        return [make_result("piezo", SKIP, "no sound card", "", fix="")]
+        return [_r("piezo", SKIP, "no sound card", "", fix="")]
     x = np.asarray(audio, dtype=np.float64).reshape(-1)
     out = []
     st = PASS if int(round(fs)) in L.AUDIO_RATES else WARN
-    out.append(make_result("sound card", st, f"{name} at {fs:.0f} Hz",
+    out.append(_r("sound card", st, f"{name} at {fs:.0f} Hz",
                   "/".join(str(r) for r in L.AUDIO_RATES), None, "",
                   "set the card to 44100 or 48000 Hz (pavucontrol or alsamixer)"))
     first_tap = (min(force_taps) - t0) if force_taps else None
     rest_end = int(fs * (first_tap - 0.05)) if first_tap and first_tap > 0.15 else int(0.2 * fs)
     rest = x[:max(rest_end, 16)]
     dc = float(rest.mean())
-    out.append(make_result("piezo DC offset", WARN if abs(dc) > L.AUDIO_DC_WARN else PASS,
+    out.append(_r("piezo DC offset", WARN if abs(dc) > L.AUDIO_DC_WARN else PASS,
                   f"{dc:+.4f} FS", f"|x| <= {L.AUDIO_DC_WARN}", None, "",
                   "the card's input has a DC offset: the preamp's output coupling capacitor "
                   "is missing or leaky"))
     floor = float(np.sqrt(np.mean((rest - dc) ** 2)))
     quiet = dbfs(floor) < L.AUDIO_FLOOR_MIN_DBFS
-    out.append(make_result("piezo level at rest", WARN if quiet else PASS,
+    out.append(_r("piezo level at rest", WARN if quiet else PASS,
                            f"{dbfs(floor):.0f} dBFS",
                   f">= {L.AUDIO_FLOOR_MIN_DBFS:g} dBFS", None, "",
                   "the card hears only itself: is the piezo's cable plugged into the "
@@ -120,7 +121,7 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
     # loop raises the hum far above the floor (a failure).
     st = FAIL if over > L.AUDIO_HUM_OVER_FLOOR_DB and hd > L.AUDIO_HUM_WARN_DBFS else \
         WARN if hd > L.AUDIO_HUM_WARN_DBFS else PASS
-    out.append(make_result("piezo hum", st, f"{hd:.0f} dBFS at {mains:.0f} Hz, {over:.0f} dB over "
+    out.append(_r("piezo hum", st, f"{hd:.0f} dBFS at {mains:.0f} Hz, {over:.0f} dB over "
                   "the floor", f"<= {L.AUDIO_HUM_WARN_DBFS:g} dBFS, "
                   f"<= {L.AUDIO_HUM_OVER_FLOOR_DB:g} dB", None, "piezo-humming",
                   "mains hum: a ground loop or an unshielded piezo lead; use a shielded "
@@ -128,7 +129,7 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
                   dbfs=hd, mains_hz=mains, over_floor_db=over))
     clip = float(np.mean(np.abs(x) >= 0.999))
     st = FAIL if clip > L.AUDIO_CLIP_FAIL else PASS
-    out.append(make_result("piezo clipping", st, f"{100 * clip:.2f} % of samples",
+    out.append(_r("piezo clipping", st, f"{100 * clip:.2f} % of samples",
                   f"<= {100 * L.AUDIO_CLIP_FAIL:g} %", None, "piezo-clipping",
                   "taps clip: lower the preamp gain (its gain resistor) or the card's "
                   "input gain (alsamixer: Mic capture)", fraction=clip))
@@ -139,7 +140,7 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
     heard = len(onsets)
     st = FAIL if heard == 0 or snr < L.AUDIO_TAP_SNR_DB else \
         WARN if heard < taps_asked else PASS
-    out.append(make_result("piezo hears taps", st, f"{heard} heard ({taps_asked} asked), peak "
+    out.append(_r("piezo hears taps", st, f"{heard} heard ({taps_asked} asked), peak "
                   f"{dbfs(peak):.0f} dBFS ({snr:.0f} dB over rest)",
                   f"{taps_asked}, >= {L.AUDIO_TAP_SNR_DB:g} dB",
                   None, "piezo-unplugged",
@@ -154,10 +155,10 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
             delays.append(t_sound[j] - tf)
         dly = float(np.median(delays)) if delays else float("nan")
         st = WARN if abs(dly) > L.AUDIO_DELAY_WARN_S else PASS
-        out.append(make_result("tap delay sound - force", st, f"{1e3 * dly:+.0f} ms",
+        out.append(_r("tap delay sound - force", st, f"{1e3 * dly:+.0f} ms",
                       f"|x| <= {1e3 * L.AUDIO_DELAY_WARN_S:g} ms", None, "",
                       "force and sound disagree on the tap time: the sound card's latency is "
                       "not compensated (use the ADC timestamps, docs/audio.md)", seconds=dly))
     else:
-        out.append(make_result("tap delay sound - force", SKIP, "taps not seen in both", ""))
+        out.append(_r("tap delay sound - force", SKIP, "taps not seen in both", ""))
     return out

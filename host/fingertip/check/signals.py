@@ -54,6 +54,9 @@ def make_result(check: str, status: str, value: str = "", limit: str = "",
                   fix if status in (FAIL, WARN) else "", data)
 
 
+_r = make_result  # short: the checks call it many times
+
+
 def _live(seg: Segment, skip: set[int]) -> list[int]:
     """The channels not already failed by an earlier check."""
     return [ch for ch in range(seg.channels) if ch not in skip]
@@ -66,7 +69,7 @@ def check_chips(seg: Segment) -> list[Result]:
     for ch in range(seg.channels):
         miss = 1 - float(np.count_nonzero(seg.answered(ch))) / n
         st = FAIL if miss >= L.TIMEOUT_FAIL else WARN if miss > L.TIMEOUT_WARN else PASS
-        out.append(make_result("chip answers", st, f"{100 * miss:.1f} % missed",
+        out.append(_r("chip answers", st, f"{100 * miss:.1f} % missed",
                       f"<= {100 * L.TIMEOUT_WARN:g} %", ch, "missing-chip",
                       f"chip {ch} does not answer: check its VCC/GND, its DOUT and SCK wires "
                       "and their solder joints (reflow them), or replace the chip",
@@ -77,13 +80,13 @@ def check_chips(seg: Segment) -> list[Result]:
 def check_rate(seg: Segment, rate_sps: int) -> Result:
     """The chips convert at the set rate (from the spacing of the device timestamps)."""
     if len(seg) < 3:
-        return make_result(f"rate {rate_sps} SPS", FAIL, "no frames", f"{rate_sps} SPS",
+        return _r(f"rate {rate_sps} SPS", FAIL, "no frames", f"{rate_sps} SPS",
                   fix="no samples arrived: check the 5 V supply of the HX711s and the RATE pin")
     dt = np.diff(seg.times_s)
     measured = 1.0 / float(np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
     rel = abs(measured - rate_sps) / rate_sps
     st = FAIL if rel > L.RATE_FAIL_REL else WARN if rel > L.RATE_WARN_REL else PASS
-    return make_result(f"rate {rate_sps} SPS", st, f"{measured:.1f} SPS",
+    return _r(f"rate {rate_sps} SPS", st, f"{measured:.1f} SPS",
               f"{rate_sps} +-{100 * L.RATE_WARN_REL:g} %",
               fix=f"the chips convert at {measured:.1f} SPS, not {rate_sps}: the RATE pin is "
                   "wired to the wrong level (low = 10 SPS, high = 80 SPS) or the crystal/XI "
@@ -97,15 +100,15 @@ def check_stuck(seg: Segment, skip: set[int] = frozenset()) -> list[Result]:
         v = seg.counts[seg.answered(ch), ch]
         v = v[np.isfinite(v)]
         if len(v) < 10:
-            out.append(make_result("DOUT toggles", SKIP, "too few readings", "", ch))
+            out.append(_r("DOUT toggles", SKIP, "too few readings", "", ch))
             continue
         distinct = len(np.unique(v))
         if distinct == 1 and v[0] in (-L.COUNTS_FULL_SCALE, L.COUNTS_FULL_SCALE - 1):
             # Pinned at a limit: an open bridge, not DOUT (check_balance names it).
-            out.append(make_result("DOUT toggles", SKIP, "saturated", "", ch))
+            out.append(_r("DOUT toggles", SKIP, "saturated", "", ch))
             continue
         st = FAIL if distinct == 1 else PASS
-        out.append(make_result("DOUT toggles", st, f"{distinct} distinct values", "> 1", ch,
+        out.append(_r("DOUT toggles", st, f"{distinct} distinct values", "> 1", ch,
                       "stuck-dout", f"chip {ch} reads {v[0]:.0f} every time: its DOUT is stuck "
                       "(a solder bridge to GND/VCC or a broken trace); reflow DOUT",
                       distinct=distinct))
@@ -137,7 +140,7 @@ def check_noise(seg: Segment, rate_sps: int, gain: int = L.GAIN,
         x = rms / exp
         st = SKIP if not np.isfinite(x) else FAIL if x > L.NOISE_FAIL_X else \
             WARN if x > L.NOISE_WARN_X else PASS
-        out.append(make_result("noise at rest", st, f"{rms:.0f} counts rms ({x:.1f}x)",
+        out.append(_r("noise at rest", st, f"{rms:.0f} counts rms ({x:.1f}x)",
                       f"{exp:.0f} x{L.NOISE_WARN_X:g}", ch, "noisy-channel",
                       f"channel {ch} is {x:.0f}x noisier than the HX711 should be: check its "
                       "ground and E- wire, twist and shorten the bridge leads, keep them away "
@@ -170,11 +173,11 @@ def check_mains(seg: Segment, rate_sps: int, gain: int = L.GAIN,
         d = _detrended(seg, ch)
         t = seg.times_s[ok]
         if rate_sps < 40 or len(d) < 20:
-            out.append(make_result("50/60 Hz pick-up", SKIP, "needs 80 SPS", "", ch))
+            out.append(_r("50/60 Hz pick-up", SKIP, "needs 80 SPS", "", ch))
             continue
         amp = max(tone_rms(t, d, mains_alias_hz(m, rate_sps)) for m in (50.0, 60.0))
         st = WARN if amp > L.MAINS_WARN_X * exp else PASS
-        out.append(make_result("50/60 Hz pick-up", st, f"{amp:.0f} counts rms",
+        out.append(_r("50/60 Hz pick-up", st, f"{amp:.0f} counts rms",
                       f"<= {L.MAINS_WARN_X * exp:.0f}", ch, "",
                       f"channel {ch} picks up mains: shorten and twist the bridge leads, ground "
                       "the shield at one end", rms_counts=amp))
@@ -193,7 +196,7 @@ def check_balance(seg: Segment, skip: set[int] = frozenset()) -> list[Result]:
             st = FAIL
         else:
             st = WARN if abs(frac) > L.BALANCE_WARN or sat > 0 else PASS
-        out.append(make_result("bridge balance", st, f"{100 * frac:+.1f} % FS"
+        out.append(_r("bridge balance", st, f"{100 * frac:+.1f} % FS"
                       + (f", {100 * sat:.0f} % saturated" if sat else ""),
                       f"|x| <= {100 * L.BALANCE_WARN:g} % FS", ch, "open-bridge",
                       f"channel {ch} sits at {100 * frac:+.0f} % of full scale: the bridge is "
@@ -211,7 +214,7 @@ def check_drift(seg: Segment, rate_sps: int, gain: int = L.GAIN,
     for ch in _live(seg, skip):
         ok = seg.valid(ch)
         if np.count_nonzero(ok) < 10:
-            out.append(make_result("drift at rest", SKIP, "too few readings", "", ch))
+            out.append(_r("drift at rest", SKIP, "too few readings", "", ch))
             continue
         t = seg.times_s[ok] - seg.times_s[ok].mean()
         coef = np.polyfit(t, seg.counts[ok, ch], 1)
@@ -220,7 +223,7 @@ def check_drift(seg: Segment, rate_sps: int, gain: int = L.GAIN,
         slope = float(coef[0]) * 60.0
         lim = L.DRIFT_WARN_X * exp
         st = WARN if abs(slope) > max(lim, L.DRIFT_SIGNIFICANCE * se) else PASS
-        out.append(make_result("drift at rest", st, f"{slope:+.0f} +-{se:.0f} counts/min",
+        out.append(_r("drift at rest", st, f"{slope:+.0f} +-{se:.0f} counts/min",
                       f"|x| <= {lim:.0f}",
                       ch, "", f"channel {ch} drifts at rest: let the board warm up for 10 "
                       "minutes, keep it out of drafts; if it stays, re-glue the gauge",
@@ -236,11 +239,11 @@ def check_return(before: Segment, after: Segment, press: np.ndarray | None,
     for ch in _live(before, skip):
         a, b = before.counts[before.valid(ch), ch], after.counts[after.valid(ch), ch]
         if not len(a) or not len(b) or press is None or not press[ch]:
-            out.append(make_result("return to zero", SKIP, "no presses", "", ch))
+            out.append(_r("return to zero", SKIP, "no presses", "", ch))
             continue
         frac = float(np.median(b) - np.median(a)) / abs(float(press[ch]))
         st = WARN if abs(frac) > L.RETURN_WARN else PASS
-        out.append(make_result("return to zero", st, f"{100 * frac:+.1f} % of a press",
+        out.append(_r("return to zero", st, f"{100 * frac:+.1f} % of a press",
                       f"|x| <= {100 * L.RETURN_WARN:g} %", ch, "",
                       f"channel {ch} stays {100 * frac:+.0f} % off after a press: the gauge "
                       "creeps in its glue (re-glue it) or the prism rubs on the cap",
@@ -325,7 +328,7 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
     seen = {f: r for f, r in responses.items() if r is not None}
     for f, r in responses.items():
         if r is None:
-            out.append(make_result(f"press {FACES[f]}", FAIL, "no response", "", None, "",
+            out.append(_r(f"press {FACES[f]}", FAIL, "no response", "", None, "",
                           f"pressing the {FACES[f]} face moved no channel: press harder, or "
                           "check that the prism is glued to the base and the cap"))
     if len(seen) < 2:
@@ -339,17 +342,17 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
             continue
         if ch in swapped:
             other = slot[ch]
-            out.append(make_result("channel mapping", FAIL, f"reads the {FACES[other]} gauge",
+            out.append(_r("channel mapping", FAIL, f"reads the {FACES[other]} gauge",
                           f"{FACES[ch]} gauge", ch, "swapped-data",
                           f"chips {ch} and {other} have their DOUT (data) wires swapped: swap "
                           f"them back, or use channel_map {mapping['channel_map']} from the "
                           "JSON report"))
         else:
-            out.append(make_result("channel mapping", PASS, f"{FACES[ch]} gauge",
+            out.append(_r("channel mapping", PASS, f"{FACES[ch]} gauge",
                                    f"{FACES[ch]} gauge",
                           ch))
         st = FAIL if sign[ch] < 0 else PASS
-        out.append(make_result("polarity", st, "reversed" if sign[ch] < 0 else "as expected",
+        out.append(_r("polarity", st, "reversed" if sign[ch] < 0 else "as expected",
                       "pressed face rises", ch, "reversed-gauge",
                       f"channel {ch} is reversed: swap its A+ and A- (or E+ and E-) wires at "
                       "the HX711, or use the sign in the JSON report's mapping"))
@@ -360,7 +363,7 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
     for ch in good:
         rel = own[ch] / med if med > 0 else 0.0
         st = FAIL if rel < L.SENSITIVITY_FAIL else WARN if rel < L.SENSITIVITY_WARN else PASS
-        out.append(make_result("sensitivity", st, f"{100 * rel:.0f} % of median",
+        out.append(_r("sensitivity", st, f"{100 * rel:.0f} % of median",
                       f">= {100 * L.SENSITIVITY_WARN:g} %", ch, "loose-gauge",
                       f"channel {ch} responds at {100 * rel:.0f} % of the others: its gauge "
                       "is loose or badly glued (re-glue it with thin cyanoacrylate, pressed "
