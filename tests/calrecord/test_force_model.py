@@ -82,3 +82,34 @@ def test_stream_and_record_with_an_onnx_model(tmp_path):
         assert r.returncode == 0, r.stderr
         out = r.stdout + r.stderr
         assert " 0 forces" not in out and " forces" in out
+
+
+def test_force_window_over_real_frames(tmp_path):
+    import time
+
+    from fingertip.device import Fingertip
+    from fingertip.models.force_load import ForceWindow
+
+    fm = ForceModel(model(tmp_path))
+    with PtyDevice(VirtualUnit(0).firmware) as dev, Fingertip(dev.port) as ft:
+        w = ForceWindow(fm, seconds=5.0)
+        ft.add_callback(w.add)
+        ft.start()
+        t0 = time.monotonic()
+        time.sleep(0.6)
+        t1 = time.monotonic()
+        ft.stop()
+    f = w.mean(t0, t1)
+    assert f is not None and all(np.isfinite(f))
+    assert w.mean(t1 + 10, t1 + 11) is None
+
+
+def test_classify_force_model_refused_or_needs_port(tmp_path):
+    bad = model(tmp_path, "bad.onnx", channels=4, units="lbf")
+    r = run_cli("classify", "material", "m.onnx", "--simulate", "glass", "--force-model",
+                str(bad), cwd=tmp_path)
+    assert r.returncode == 2 and "needs --port" in r.stderr
+    with PtyDevice(VirtualUnit(0).firmware) as dev:
+        r = run_cli("classify", "material", "m.onnx", "--port", dev.port, "--force-model",
+                    str(bad), cwd=tmp_path)
+    assert r.returncode == 2 and "refused" in r.stderr and "lbf" in r.stderr

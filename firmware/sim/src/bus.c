@@ -220,7 +220,7 @@ static void pin_read_notify(struct avr_irq_t *irq, uint32_t value, void *param)
 
 static void apply_value(sim_t *s, const event_t *e)
 {
-    hx711_t *c = &s->bus.chip[e->ch];
+    hx711_t *c = &s->bus.chip[s->bus.route[e->ch]];
     if (e->input_b)
         c->in_b = e->value;
     else
@@ -284,6 +284,7 @@ int bus_attach(sim_t *s, int nch, uint32_t dout_delay)
         b->dout_irq[ch] = avr_io_getirq(s->avr, AVR_IOCTL_IOPORT_GETIRQ(ch_port(ch)), ch_bit(ch));
         hx711_init(&b->chip[ch], ch, s->f_cpu, &b->ops);
         hx711_seed(&b->chip[ch], s->seed);
+        b->route[ch] = (int8_t)ch;
     }
     for (int i = 0; i < 3; i++) {
         bus_port_t *p = &b->port[i];

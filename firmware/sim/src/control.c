@@ -313,6 +313,43 @@ static void cmd_chip(sim_t *s, cmd_t *c)
     ok_simple(s, c->name);
 }
 
+static void cmd_fault(sim_t *s, cmd_t *c)
+{
+    int ch;
+    bool b;
+    if (c->ntok != 2)
+        return fail(s, c->name, "usage: fault <ch>|* ok|reversed|loose|open");
+    if (want_ch(s, c, c->tok[0], &ch, &b))
+        return;
+    for (int i = 0; i < s->bus.nch; i++)
+        if ((ch < 0 || ch == i) && hx711_set_fault(&s->bus.chip[i], c->tok[1]))
+            return fail(s, c->name, "bad fault '%s' (ok|reversed|loose|open)", c->tok[1]);
+    ok_simple(s, c->name);
+}
+
+/* Two DOUT wires swapped: each channel's bridge now shows on the other's pin. */
+static void cmd_swap(sim_t *s, cmd_t *c)
+{
+    int a, b2;
+    bool ia, ib;
+    if (c->ntok != 2)
+        return fail(s, c->name, "usage: swap <ch> <ch>");
+    if (want_ch(s, c, c->tok[0], &a, &ia) || want_ch(s, c, c->tok[1], &b2, &ib))
+        return;
+    if (a < 0 || b2 < 0)
+        return fail(s, c->name, "swap takes two channel numbers, not *");
+    hx711_t *ca = &s->bus.chip[s->bus.route[a]], *cb = &s->bus.chip[s->bus.route[b2]];
+    int64_t ia0 = ca->in_a, ib0 = ca->in_b;   /* what each pin shows changes at once */
+    ca->in_a = cb->in_a;
+    ca->in_b = cb->in_b;
+    cb->in_a = ia0;
+    cb->in_b = ib0;
+    int8_t t = s->bus.route[a];
+    s->bus.route[a] = s->bus.route[b2];
+    s->bus.route[b2] = t;
+    ok_simple(s, c->name);
+}
+
 static const char *gain_name(hx711_gain_t g)
 {
     return g == HX711_GAIN_A128 ? "A128" : g == HX711_GAIN_A64 ? "A64" : "B32";
@@ -332,6 +369,8 @@ static void cmd_chips(sim_t *s, cmd_t *c)
         jint(&s->out, "ch", i);
         jstr(&s->out, "pin", bus_pin_name(i));
         jstr(&s->out, "mode", hx711_mode_name(h->mode));
+        jstr(&s->out, "fault", hx711_fault_name(h));
+        jint(&s->out, "route", s->bus.route[i]);
         jbool(&s->out, "powered", h->powered);
         jbool(&s->out, "ready", h->ready);
         jint(&s->out, "pulses", h->pulses);
@@ -499,7 +538,7 @@ static const entry_t table[] = {
     {"chips", cmd_chips},     {"go", cmd_go},         {"hold", cmd_hold},
     {"until", cmd_until_abs}, {"step", cmd_step},     {"reset", cmd_reset},
     {"throttle", cmd_throttle}, {"stats", cmd_stats}, {"stats_reset", cmd_stats_reset},
-    {"quit", cmd_quit},
+    {"fault", cmd_fault},     {"swap", cmd_swap},     {"quit", cmd_quit},
 };
 
 static void execute(sim_t *s, char *line)

@@ -85,6 +85,12 @@ typedef struct hx711 {
     bool have_spare;        /* Box-Muller gives two normals at a time */
     double spare;
 
+    /* Build faults (ours, for `fingertip check`): the input as a faulty bridge presents
+     * it. in = fault_ref + fault_scale * (in - fault_ref) + fault_offset. */
+    double fault_scale;     /* 1 ok; -1 bridge wired reversed; 0.15 a loose gauge */
+    int64_t fault_ref;      /* the input when the fault was set: the bridge at rest */
+    int64_t fault_offset;   /* an open bridge: far beyond full scale */
+
     int32_t last_value;     /* last converted value (for 'chips') */
     hx711_counters_t n;
     const hx711_ops_t *ops;
@@ -106,6 +112,10 @@ void hx711_sck_fall(hx711_t *c, uint64_t now);
 
 /* Pure: what the chip would output for an input, noise and gain. */
 int32_t hx711_code(int64_t input, double noise, hx711_gain_t gain);
+
+/* Build faults: "ok", "reversed", "loose", "open" (0 done, -1 unknown name). */
+int hx711_set_fault(hx711_t *c, const char *name);
+const char *hx711_fault_name(const hx711_t *c);
 
 const char *hx711_mode_name(hx711_mode_t m);
 int hx711_mode_parse(const char *s, hx711_mode_t *out);

@@ -47,6 +47,9 @@ typedef struct bus {
     int nch;
     bus_port_t port[3];     /* B, C, D */
     hx711_t chip[HX711_MAX_CHANNELS];
+    /* Which chip each channel's bridge feeds: two DOUT wires swapped on the board make
+     * channel a's bridge appear on pin b (identity unless `swap`). */
+    int8_t route[HX711_MAX_CHANNELS];
     avr_irq_t *dout_irq[HX711_MAX_CHANNELS];
     int dout_level[HX711_MAX_CHANNELS];     /* level on the wire now */
 

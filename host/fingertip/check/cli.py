@@ -68,48 +68,70 @@ def _cmd_check(args: argparse.Namespace) -> int:
         log.error("--fault needs --virtual (faults are simulated)")
         return 2
     say = None if args.quiet else (lambda m: print(f"check: {m}", file=sys.stderr, flush=True))
+    targets = [("port", p) for p in args.port or []] + \
+        [("serial", n) for n in args.serial or []] or [("virtual", "")]
+    reports = []
+    for kind, where in targets:  # a hand: one fingertip after the other
+        if len(targets) > 1 and not args.quiet:
+            print(f"== {where}", file=sys.stderr)
+        try:
+            with contextlib.ExitStack() as stack:
+                if kind == "virtual":
+                    port, guide, audio = stack.enter_context(_virtual(args))
+                    if args.no_prompt:
+                        guide = NoPromptGuide()
+                    ft = stack.enter_context(Fingertip(port, command_timeout=2.0))
+                    probe = DeviceProbe(ft)
+                else:
+                    ft = stack.enter_context(Fingertip(where) if kind == "port" else
+                                             Fingertip(serial_number=where))
+                    probe = DeviceProbe(ft)
+                    guide = NoPromptGuide() if args.no_prompt else PromptGuide()
+                    audio = _real_audio(args, probe)
+                report = run_check(probe, guide, audio, progress=say)
+        except ValueError as e:  # a bad --fault
+            log.error("%s", e)
+            return 2
+        except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+            log.error("%s", e)
+            return 2
+        if kind == "virtual":
+            report.device["virtual"] = {"seed": args.seed, "faults": args.fault or []}
+        reports.append(report)
+    doc = reports[0].as_dict() if len(reports) == 1 else \
+        {"ok": all(r.ok for r in reports), "fingertips": [r.as_dict() for r in reports]}
     try:
-        with contextlib.ExitStack() as stack:
-            if args.virtual:
-                port, guide, audio = stack.enter_context(_virtual(args))
-                if args.no_prompt:
-                    guide = NoPromptGuide()
-                ft = stack.enter_context(Fingertip(port))
-                probe = DeviceProbe(ft)
-            else:
-                ft = Fingertip(args.port) if args.port else Fingertip(serial_number=args.serial)
-                stack.enter_context(ft)
-                probe = DeviceProbe(ft)
-                guide = NoPromptGuide() if args.no_prompt else PromptGuide()
-                audio = _real_audio(args, probe)
-            report = run_check(probe, guide, audio, progress=say)
-    except ValueError as e:  # a bad --fault
-        log.error("%s", e)
-        return 2
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-        log.error("%s", e)
-        return 2
-    if args.virtual:
-        report.device["virtual"] = {"seed": args.seed, "faults": args.fault or []}
-    try:
-        report.write_json(args.report)
+        Path(args.report).write_text(json.dumps(doc, indent=1, default=str) + "\n",
+                                     encoding="utf-8")
     except OSError as e:
         log.error("cannot write %s: %s", args.report, e.strerror or e)
         return 2
+    if args.plot and len(reports) == 1 and "rest" in reports[0].recorded:
+        from .plot import plot_check
+
+        report = reports[0]
+        plot_check(report.recorded["rest"], report.recorded.get("responses", {}), args.plot,
+                   "fingertip check: " + ("all passed" if report.ok else
+                                          "failed: " + ", ".join(sorted(report.faults))))
     if args.json:
-        print(json.dumps(report.as_dict(), default=str))
+        print(json.dumps(doc, default=str))
     else:
-        print(report.table())
+        for (_, where), report in zip(targets, reports, strict=True):
+            if len(reports) > 1:
+                print(f"\n== {where}")
+            print(report.table())
         print(f"report: {Path(args.report)}")
-    return report.exit_code()
+    return max(r.exit_code() for r in reports)
 
 
 def add_parsers(sub) -> None:
     c = sub.add_parser("check", help="bring-up check of a new fingertip (pass/warn/fail)",
                        description=_cmd_check.__doc__)
     g = c.add_mutually_exclusive_group(required=True)
-    g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
-    g.add_argument("--serial", help="USB serial number of its Arduino")
+    g.add_argument("--port", action="append",
+                   help="serial port of the fingertip, e.g. /dev/ttyACM0 (repeat for a hand: "
+                        "checked one after the other)")
+    g.add_argument("--serial", action="append", help="USB serial number of its Arduino")
     g.add_argument("--virtual", action="store_true",
                    help="check a virtual fingertip (the simulator presses and taps)")
     c.add_argument("--no-prompt", action="store_true",
@@ -117,6 +139,8 @@ def add_parsers(sub) -> None:
     c.add_argument("--report", default="check-report.json", metavar="FILE.json",
                    help="where to write the JSON report (default check-report.json)")
     c.add_argument("--json", action="store_true", help="print the report as JSON")
+    c.add_argument("--plot", metavar="FILE.png",
+                   help="also a picture of the rest noise and the presses")
     c.add_argument("--audio-device", metavar="NAME",
                    help="the piezo's sound card (default: the card paired with the port)")
     c.add_argument("--no-audio", action="store_true", help="do not check the piezo")

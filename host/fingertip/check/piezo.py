@@ -8,7 +8,8 @@ import numpy as np
 
 from . import limits as L
 from .results import FAIL, PASS, SKIP, WARN
-from .signals import Segment, _r
+from .signals import Segment
+from .signals import make_result as _r
 
 MAINS = (50.0, 60.0)
 HARMONICS = 5
@@ -102,7 +103,8 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
                   "is missing or leaky"))
     floor = float(np.sqrt(np.mean((rest - dc) ** 2)))
     quiet = dbfs(floor) < L.AUDIO_FLOOR_MIN_DBFS
-    out.append(_r("piezo level at rest", WARN if quiet else PASS, f"{dbfs(floor):.0f} dBFS",
+    out.append(_r("piezo level at rest", WARN if quiet else PASS,
+                           f"{dbfs(floor):.0f} dBFS",
                   f">= {L.AUDIO_FLOOR_MIN_DBFS:g} dBFS", None, "",
                   "the card hears only itself: is the piezo's cable plugged into the "
                   "preamp and the preamp into the card's microphone input?", dbfs=dbfs(floor)))

@@ -2,16 +2,18 @@
 untared counts with their device times, the device's identity and counters."""
 from __future__ import annotations
 
+import logging
 import time
 from typing import Any
 
 import numpy as np
 
-from ..device import Fingertip
+from ..device import Fingertip, FingertipError
 from ..protocol import message_to_dict
 from .signals import Segment
 
 LINK_COUNTERS = ("rx_overflows", "rx_crc_errors", "rx_framing_errors", "tx_overruns")
+log = logging.getLogger(__name__)
 BRIDGE_COUNTERS = ("crc_errors", "cobs_errors", "framing_errors", "bad_payload", "frames_lost",
                    "overruns")
 
@@ -78,8 +80,13 @@ class DeviceProbe:
         times = np.array([f.device_time_us * 1e-6 for f in rows])
         return Segment(times, counts, tmask, smask)
 
-    def counters(self) -> dict[str, int]:
-        st = message_to_dict(self.ft.device_stats())
+    def counters(self) -> dict[str, int] | None:
+        """Link counters since :meth:`prepare`; None when the device does not answer."""
+        try:
+            st = message_to_dict(self.ft.device_stats())
+        except FingertipError as e:
+            log.warning("no device counters: %s", e)
+            return None
         br = self.ft.stats
         out = {f"device.{k}": int(st[k]) for k in LINK_COUNTERS if k in st}
         out.update({f"host.{k}": int(getattr(br, k)) - self._host0.get(k, 0)
@@ -87,8 +94,11 @@ class DeviceProbe:
         return out
 
     def restore(self) -> None:
-        try:
-            self.ft.stop()
-        finally:
-            self.ft.set_rate(*self._rate)
-            self.ft.set_tare_offsets(list(self._offsets))
+        """Stop streaming, put back the rate and the tare offsets (each step tried, a
+        failure logged: the report matters more than the clean-up)."""
+        for step in (self.ft.stop, lambda: self.ft.set_rate(*self._rate),
+                     lambda: self.ft.set_tare_offsets(list(self._offsets))):
+            try:
+                step()
+            except FingertipError as e:
+                log.warning("restoring the device's settings: %s", e)

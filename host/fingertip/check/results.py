@@ -38,6 +38,9 @@ class Report:
     skipped_steps: list[str] = field(default_factory=list)
     seconds: float = 0.0
     mapping: dict[str, Any] | None = None
+    recorded: dict[str, Any] = field(default_factory=dict, repr=False)
+    """What was recorded (the rest segment, the press responses) for :mod:`.plot`; not in
+    the JSON."""
 
     def add(self, r: Result | list[Result]) -> None:
         self.results.extend(r if isinstance(r, list) else [r])

@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..device import FingertipError
 from ..protocol import PROTOCOL_MAJOR
 from . import signals as S
 from .guide import Guide
@@ -45,6 +46,9 @@ def run_check(probe, guide: Guide, audio=None, *,
     probe.prepare()
     try:
         _run(probe, guide, audio, rep, say)
+    except FingertipError as e:
+        rep.add(Result("link", FAIL, f"the device stopped answering: {e}", "answers",
+                       fix="check the USB cable and hub; run the check again"))
     finally:
         probe.restore()
     rep.seconds = time.monotonic() - t_start
@@ -56,6 +60,7 @@ def _run(probe, guide: Guide, audio, rep: Report, say) -> None:
     say("recording at rest (80 SPS) ...")
     probe.capture(0.3)  # let the chips settle after the rate command
     rest = probe.capture(REST_S)
+    rep.recorded["rest"] = rest
     chips = S.check_chips(rest)
     rep.add(chips)
     bad = {r.channel for r in chips if r.status == FAIL}
@@ -92,6 +97,10 @@ def _run(probe, guide: Guide, audio, rep: Report, say) -> None:
     rep.add(S.check_return(rest, end, press, bad))
 
     counters = probe.counters()
+    if counters is None:
+        rep.add(Result("link counters", WARN, "no answer to GET_STATS", "an answer",
+                       fix="the device did not answer in time: another cable, a powered hub"))
+        return
     dirty = {k: v for k, v in counters.items() if v}
     rep.add(Result("link counters", WARN if dirty else PASS,
                    ", ".join(f"{k}={v}" for k, v in dirty.items()) or "all zero", "all zero",
@@ -109,6 +118,7 @@ def _presses(probe, guide: Guide, rep: Report, noise, bad, say) -> None:
         say(f"press {label} ...")
         seg = probe.capture(PRESS_S[guide.interactive])
         responses[face] = S.press_response(seg, noise, bad)
+    rep.recorded["responses"] = responses
     if not responses:
         rep.add(Result("polarity and mapping", SKIP, "presses skipped", ""))
         return

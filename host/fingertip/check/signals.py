@@ -46,10 +46,15 @@ class Segment:
         return ((self.timeout_mask >> ch) & 1) == 0
 
 
-def _r(check: str, status: str, value: str = "", limit: str = "", ch: int | None = None,
-       fault: str = "", fix: str = "", **data) -> Result:
+def make_result(check: str, status: str, value: str = "", limit: str = "",
+                ch: int | None = None, fault: str = "", fix: str = "", **data) -> Result:
+    """A :class:`Result`; the fault is kept for failures only, the fix for failures and
+    warnings."""
     return Result(check, status, value, limit, ch, fault if status == FAIL else "",
                   fix if status in (FAIL, WARN) else "", data)
+
+
+_r = make_result  # short: the checks call it many times
 
 
 def _live(seg: Segment, skip: set[int]) -> list[int]:
@@ -343,7 +348,8 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
                           f"them back, or use channel_map {mapping['channel_map']} from the "
                           "JSON report"))
         else:
-            out.append(_r("channel mapping", PASS, f"{FACES[ch]} gauge", f"{FACES[ch]} gauge",
+            out.append(_r("channel mapping", PASS, f"{FACES[ch]} gauge",
+                                   f"{FACES[ch]} gauge",
                           ch))
         st = FAIL if sign[ch] < 0 else PASS
         out.append(_r("polarity", st, "reversed" if sign[ch] < 0 else "as expected",

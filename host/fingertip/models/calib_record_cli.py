@@ -126,12 +126,72 @@ def _cmd_record(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
+    return _done(report, args.out, "", ", ".join(
+        v for k, v in report.files.items() if k != "chosen") + ", joined.csv, alignment.json")
+
+
+def _done(report, out, how: str, files: str) -> int:
     c = report.chosen_result
     print(report.table())
-    print(f"\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N); wrote {args.out}: force.onnx, "
-          + ", ".join(v for k, v in report.files.items() if k != "chosen")
-          + ", joined.csv, alignment.json")
+    print(f"\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N{how}); wrote {out}: "
+          f"force.onnx, {files}")
     return 0
+
+
+def _cmd_weights(args: argparse.Namespace) -> int:
+    """Calibrate with known weights, no force sensor needed: turn the fingertip so that a
+    weight hung from its nail pulls along each direction in turn, enter each mass (at least
+    three per direction, both axes), and the models are fitted on the settled readings
+    (docs/bring-up.md). --virtual: the simulator hangs the weights."""
+    from ..device import Fingertip, FingertipError
+    from ..protocol import ProtocolVersionError
+    from ..transport import DeviceNotFound, TransportError
+    from .calibrate import CalibrationError, fit_calibration
+    from .weights import DIRECTIONS, PromptWeightsGuide, record_weights
+
+    dirs = [d.strip().upper() for d in args.directions.split(",")]
+    bad = [d for d in dirs if d not in DIRECTIONS]
+    if bad:
+        log.error("unknown direction(s) %s: use %s", ", ".join(bad), ", ".join(DIRECTIONS))
+        return 2
+    say = None if args.quiet else (lambda m: print(f"weights: {m}", file=sys.stderr,
+                                                    flush=True))
+    try:
+        with contextlib.ExitStack() as stack:
+            if args.virtual:
+                from ..sim.bringup import SimWeightsGuide, VirtualUnit
+                from ..sim.pty_device import PtyDevice
+
+                unit = VirtualUnit(args.seed)
+                dev = stack.enter_context(PtyDevice(unit.firmware, speed=args.speed))
+                ft = stack.enter_context(Fingertip(dev.port))
+                guide = SimWeightsGuide(unit, [float(m) for m in args.masses.split(",")])
+                serial = f"virtual-{args.seed}"
+            else:
+                ft = stack.enter_context(Fingertip(args.port) if args.port else
+                                         Fingertip(serial_number=args.serial))
+                guide = PromptWeightsGuide()
+                serial = args.device_serial or ft.serial_number or ""
+            session = record_weights(ft, guide, dirs, say=say)
+            gain = int(ft.info.gain)
+        data = session.dataset(gain=gain, unit=serial)
+        report = fit_calibration(data, args.out, models=args.models, split="trial",
+                                 extra_metadata={"device_serial": serial,
+                                                 "reference": "known weights"})
+    except CalibrationError as e:
+        log.error("cannot calibrate [%s]: %s", e.code, e)
+        return 2
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return 2
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    except OSError as e:
+        log.error("writing into %s failed: %s", args.out, e.strerror or e)
+        return 1
+    return _done(report, args.out, " over whole weight steps", ", ".join(
+        v for k, v in report.files.items() if k != "chosen"))
 
 
 def add_parser(csub) -> None:
@@ -169,3 +229,23 @@ def add_parser(csub) -> None:
                    help="--virtual: packets lost (default 1 %%)")
     r.add_argument("-q", "--quiet", action="store_true")
     r.set_defaults(func=_cmd_record)
+
+    w = csub.add_parser("weights", help="calibrate with known weights (no F/T sensor)",
+                        description=_cmd_weights.__doc__)
+    g = w.add_mutually_exclusive_group(required=True)
+    g.add_argument("--port", help="serial port of the fingertip")
+    g.add_argument("--serial", help="USB serial number of its Arduino")
+    g.add_argument("--virtual", action="store_true", help="a virtual fingertip")
+    w.add_argument("--directions", default="+X,+Y,-X,-Y",
+                   help="directions of the pull, in order (default +X,+Y,-X,-Y)")
+    w.add_argument("--masses", default="50,100,200,300",
+                   help="--virtual: the masses hung in each direction, grams")
+    w.add_argument("--device-serial", help="the fingertip's serial, written into the model")
+    w.add_argument("-o", "--out", default="calibration", metavar="OUTDIR")
+    w.add_argument("--models", type=_models, default=["affine"],
+                   help="models to fit (default affine: a few weights determine little more)")
+    w.add_argument("--seed", type=int, default=0, help="--virtual: which unit")
+    w.add_argument("--speed", type=number(float, 0.1, 20.0), default=1.0,
+                   help="--virtual: device seconds per wall second")
+    w.add_argument("-q", "--quiet", action="store_true")
+    w.set_defaults(func=_cmd_weights)

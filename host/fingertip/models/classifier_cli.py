@@ -216,6 +216,15 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     if len(sources) != 1:
         log.error("give exactly one of FILE, --audio DEVICE, --port PORT or --simulate NAME")
         return 2
+    forces = None
+    if args.force_model:
+        if args.port is None:
+            log.error("--force-model needs --port: the fingertip whose forces go with the "
+                      "predictions (its paired sound card is classified)")
+            return 2
+        forces, ft = _open_forces(args.port, args.force_model)
+        if forces is None:
+            return 2
     try:
         clf = VibrationClassifier(args.model, kind=args.kind)
         if args.file is not None:
@@ -244,15 +253,19 @@ def _cmd_classify(args: argparse.Namespace) -> int:
             try:
                 for p in clf.stream(src, duration=args.duration, channel=args.channel):
                     preds.append(p)
-                    _show(p, args.json)
+                    _show(p, args.json, forces)
                     if args.decide_at is not None and _decided(p, args.decide_at):
                         break
             except KeyboardInterrupt:
                 pass
             finally:
                 src.stop()
+                if forces is not None:
+                    ft.close()
             result = Classification(preds, clf.classes, clf.unknown_below)
     except _user_errors() as e:
+        if forces is not None:
+            ft.close()
         log.error("%s", e)
         return 2
     if args.decide_at is not None:
@@ -294,9 +307,43 @@ def _print_decision(result, threshold: float, as_json: bool) -> int:
     return 0
 
 
-def _show(p, as_json: bool) -> None:
+def _open_forces(port: str, path: str):
+    """The fingertip on ``port`` streaming into a :class:`ForceWindow` of the model at
+    ``path`` (checked against it); (None, None) after logging why not."""
+    from ..device import Fingertip, FingertipError
+    from ..protocol import ProtocolVersionError
+    from ..transport import DeviceNotFound, TransportError
+    from .force_load import ForceWindow, ModelMismatch, force_model_for
+
+    try:
+        ft = Fingertip(port).open()
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return None, None
+    try:
+        window = ForceWindow(force_model_for(ft, path))
+        ft.add_callback(window.add)
+        ft.start()
+    except (ModelMismatch, FileNotFoundError, ValueError) as e:
+        ft.close()
+        log.error("--force-model refused: %s", e)
+        return None, None
+    except FingertipError as e:
+        ft.close()
+        log.error("%s", e)
+        return None, None
+    return window, ft
+
+
+def _show(p, as_json: bool, forces=None) -> None:
+    f = None
+    if forces is not None and p.host_time is not None:
+        f = forces.mean(p.host_time - (p.t_end - p.t_start), p.host_time)
     if as_json:
-        print(json.dumps(p.to_dict()), flush=True)
+        d = p.to_dict()
+        if forces is not None:
+            d["force_n"] = None if f is None else [round(f[0], 4), round(f[1], 4)]
+        print(json.dumps(d), flush=True)
         return
     level = f"{p.level_db:6.1f} dB" if math.isfinite(p.level_db) else "silence"
     run = ""
@@ -304,7 +351,8 @@ def _show(p, as_json: bool) -> None:
         top = max(p.running, key=p.running.get)
         run = f"  so far: {top} {100 * p.running[top]:5.1f} %"
     print(f"{p.t_start:8.2f}-{p.t_end:7.2f} s  {p.label:<18} {100 * p.probability:5.1f} %  "
-          f"{level}" + ("  CLIPPED" if p.clipped else "") + run, flush=True)
+          f"{level}" + ("  CLIPPED" if p.clipped else "")
+          + (f"  Fx {f[0]:+.2f} Fy {f[1]:+.2f} N" if f else "") + run, flush=True)
 
 
 def add_parsers(sub) -> None:
@@ -412,6 +460,9 @@ def add_parsers(sub) -> None:
         p.add_argument("--decide-at", type=number(float, 0, 1, lo_open=True), metavar="P",
                        help="stop at the first answer whose running probability reaches P "
                             "(0-1) and print the decision and the time it took")
+        p.add_argument("--force-model", metavar="FORCE.onnx",
+                       help="with --port: the fingertip's mean force over each window, from "
+                            "this calibration (refused when it does not fit the fingertip)")
         p.set_defaults(func=_cmd_classify, kind=kind)
 
 

@@ -69,3 +69,32 @@ def force_model_for(ft, path: str | Path, *, allow_other_device: bool = False) -
                          allow_other_device=allow_other_device):
         log.warning("%s", w)
     return model
+
+
+class ForceWindow:
+    """Forces of a streaming fingertip kept for the last ``seconds``, to be averaged over any
+    window of host time (a classifier's window, for example). Add it with
+    ``ft.add_callback(window.add)``."""
+
+    def __init__(self, model: ForceModel, seconds: float = 30.0) -> None:
+        from collections import deque
+
+        self.model = model
+        self.seconds = seconds
+        self._rows: deque = deque()
+
+    def add(self, frame) -> None:
+        est = self.model.estimate_frame(frame)
+        if est.ok:
+            self._rows.append((frame.host_time, est.fx, est.fy))
+        while self._rows and self._rows[0][0] < frame.host_time - self.seconds:
+            self._rows.popleft()
+
+    def mean(self, t0: float, t1: float) -> tuple[float, float] | None:
+        """Mean (Fx, Fy) of the frames stamped in [t0, t1]; None when there are none."""
+        sel = [(fx, fy) for t, fx, fy in list(self._rows) if t0 <= t <= t1]
+        if not sel:
+            return None
+        a = sum(s[0] for s in sel) / len(sel)
+        b = sum(s[1] for s in sel) / len(sel)
+        return a, b

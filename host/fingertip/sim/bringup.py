@@ -164,3 +164,27 @@ class SimAudio:
     def stop(self, device_time_s: float) -> tuple[np.ndarray, float]:
         """The recording since :meth:`start` and the device time of its first sample."""
         return self.unit.render_audio(self._t0, device_time_s), self._t0
+
+
+class SimWeightsGuide:
+    """The known-weights procedure on a virtual unit: each mass hangs at the nail along the
+    asked direction (a ramp, then held) until :meth:`remove`; ``masses_g`` per direction."""
+
+    def __init__(self, unit: VirtualUnit, masses_g=(50.0, 100.0, 200.0, 300.0)) -> None:
+        self.unit = unit
+        self.masses = list(masses_g)
+
+    def place(self, direction: str, index: int) -> float | None:
+        # The procedure's directions and timing live in the layer above: import at use.
+        from ..models.weights import DIRECTIONS, G, RECORD_S, SETTLE_S
+
+        if index >= len(self.masses):
+            return None
+        m = self.masses[index]
+        # Held through the procedure's settle and record windows, off before the next.
+        self.unit.scene.press(self.unit.now_s, DIRECTIONS[direction], m * 1e-3 * G,
+                              ramp_s=0.1, hold_s=SETTLE_S + RECORD_S - 0.05, height_mm=0.0)
+        return m
+
+    def remove(self) -> None:
+        pass  # each simulated weight comes off by itself after its hold

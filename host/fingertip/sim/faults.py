@@ -13,7 +13,8 @@ Each fault is what a new builder typically gets wrong, modelled where it happens
   cable out, its preamp gain far too high, a ground loop (mains pick-up 40 times normal).
 
 A fault spec is ``NAME`` or ``NAME:CHANNEL`` (``swapped-data:A,B``); :func:`parse_fault`
-turns it into a :class:`Fault`.
+turns it into a :class:`Fault`. The simavr harness (firmware/sim) takes the strain faults
+as its own commands (:func:`simavr_commands`): ``swap``, ``fault``, ``chip``, ``noise``.
 """
 from __future__ import annotations
 
@@ -139,3 +140,28 @@ def audio_settings(faults: Sequence[Fault]) -> dict[str, float | bool]:
     return {"connected": "piezo-unplugged" not in names,
             "gain_factor": PIEZO_GAIN_FACTOR if "piezo-clipping" in names else 1.0,
             "hum_factor": HUM_FACTOR if "piezo-humming" in names else 1.0}
+
+
+def simavr_commands(faults: Sequence[Fault], noise_counts: float) -> list[str]:
+    """The harness commands that build ``faults`` into the simulated HX711s (the piezo is
+    not on the Uno: its faults have no command). ``noise_counts``: the chips' normal noise
+    rms (the noisy channel gets ten times it). Issue them after the inputs at rest are set:
+    a loose gauge scales the input around its value at that moment."""
+    out = []
+    for f in faults:
+        c = f.channels
+        if f.name == "swapped-data":
+            out.append(f"swap {c[0]} {c[1]}")
+        elif f.name == "reversed-gauge":
+            out.append(f"fault {c[0]} reversed")
+        elif f.name == "open-bridge":
+            out.append(f"fault {c[0]} open")
+        elif f.name == "loose-gauge":
+            out.append(f"fault {c[0]} loose")
+        elif f.name == "missing-chip":
+            out.append(f"chip {c[0]} absent")
+        elif f.name == "stuck-dout":
+            out.append(f"chip {c[0]} stuck_low")
+        elif f.name == "noisy-channel":
+            out.append(f"noise {c[0]} {NOISE_FACTOR * noise_counts:g}")
+    return out

@@ -28,15 +28,18 @@ class ReferenceRun:
 
 
 def random_presses(scene: GuidedScene, duration_s: float, rng: np.random.Generator,
-                   start_s: float = 1.0, max_n: float = 4.0) -> None:
-    """Presses of random direction, size, speed and height until ``duration_s``."""
+                   start_s: float = 1.0, max_n: float = 4.0,
+                   height_mm: float | None = None) -> None:
+    """Presses of random direction, size, speed and height (0-5 mm, or ``height_mm``)
+    until ``duration_s``."""
     t = start_s
     while True:
         ramp, hold = rng.uniform(0.6, 1.5), rng.uniform(0.3, 1.5)
         if t + 2 * ramp + hold > duration_s - 0.5:
             return
+        h = rng.uniform(0.0, 5.0)
         end = scene.press(t, rng.uniform(0, 360), rng.uniform(0.5, max_n), ramp, hold,
-                          rng.uniform(0.0, 5.0))
+                          h if height_mm is None else height_mm)
         t = end + rng.uniform(0.3, 1.0)
 
 
