@@ -24,8 +24,10 @@ APT_NATIVE_TESTS := doctest-dev nlohmann-json3-dev
 APT_SIM := simavr libsimavr-dev libelf-dev
 # PortAudio for sounddevice; a private PulseAudio server with a null sink for audio tests.
 APT_AUDIO := libportaudio2 pulseaudio pulseaudio-utils libasound2-plugins
+# clang with libFuzzer and the sanitizer runtimes, for the firmware fuzzers (firmware/fuzz).
+APT_FUZZ := clang libclang-rt-14-dev
 APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM) \
-                $(APT_AUDIO)
+                $(APT_AUDIO) $(APT_FUZZ)
 
 PYTEST_ARGS ?=
 
@@ -35,6 +37,7 @@ PYTEST_ARGS ?=
 help:
 	@sed -n '2,9p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
+	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
 	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
@@ -77,6 +80,7 @@ $(STAMPS)/venv-fab: $(STAMPS)/venv
 
 test: setup
 	$(MAKE) --no-print-directory test-native
+	$(MAKE) --no-print-directory test-fuzz
 	$(MAKE) --no-print-directory firmware
 	$(MAKE) --no-print-directory sim
 	$(MAKE) --no-print-directory -C firmware/sim selftest
@@ -89,6 +93,16 @@ test-native: system-packages
 
 firmware: system-packages
 	$(MAKE) --no-print-directory -C firmware all
+
+# libFuzzer on the firmware's COBS decoder and command receiver, seeded from the shared
+# vectors: 30 s per target in `make test` (60 s in all), FUZZ_SECONDS per target in `make fuzz`.
+FUZZ_SECONDS ?= 600
+.PHONY: test-fuzz fuzz
+test-fuzz: system-packages
+	$(MAKE) --no-print-directory -C firmware/fuzz run SECONDS=30
+
+fuzz: system-packages
+	$(MAKE) --no-print-directory -C firmware/fuzz run SECONDS=$(FUZZ_SECONDS)
 
 # make flash PORT=/dev/ttyACM0 [CHANNELS=4|16]: build, then upload with avrdude.
 .PHONY: flash
