@@ -37,6 +37,7 @@ PYTEST_ARGS ?=
 help:
 	@sed -n '2,9p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
+	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
@@ -132,6 +133,13 @@ demo: setup
 
 bench: setup
 	$(VPY) tests/bench/run.py
+
+# Hours, not seconds: four virtual fingertips with audio, forces, events and a recording,
+# devices killed and restarted; figures soak_* into docs/benchmarks.json. Not in `test`.
+SOAK_MINUTES ?= 30
+.PHONY: soak
+soak: setup
+	$(VPY) tests/bench/bench_soak.py --minutes $(SOAK_MINUTES)
 
 vectors: venv
 	$(VPY) tests/vectors/generate.py
