@@ -214,3 +214,14 @@ def test_simulator_parameters(good, tmp_path, kind):
     assert_one_line(fingertip("sim", "dataset", "calibration", tmp_path / "o", "--params", p),
                     p)
     assert not any((tmp_path / "o").glob("*.csv"))
+
+
+# --- firmware image -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_flash_hex(good, tmp_path, kind):
+    hex_text = b":100000000C945C000C946E000C946E000C946E00CA\n:00000001FF\n"
+    like = tmp_path / "good.hex"
+    like.write_bytes(hex_text)
+    p = bad_file(tmp_path, kind, like, good["wav"], ".hex")
+    assert_one_line(fingertip("flash", "--hex", p, "--dry-run"), p)
