@@ -25,8 +25,10 @@ APT_NATIVE_TESTS := doctest-dev nlohmann-json3-dev
 APT_SIM := simavr libsimavr-dev libelf-dev
 # PortAudio for sounddevice; a private PulseAudio server with a null sink for audio tests.
 APT_AUDIO := libportaudio2 pulseaudio pulseaudio-utils libasound2-plugins
+# clang with libFuzzer and the sanitizer runtimes, for the firmware fuzzers (firmware/fuzz).
+APT_FUZZ := clang libclang-rt-14-dev
 APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM) \
-                $(APT_AUDIO)
+                $(APT_AUDIO) $(APT_FUZZ)
 
 PYTEST_ARGS ?=
 
@@ -36,6 +38,8 @@ PYTEST_ARGS ?=
 help:
 	@sed -n '2,10p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
+	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
+	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
 	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
 	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
@@ -78,6 +82,7 @@ $(STAMPS)/venv-fab: $(STAMPS)/venv
 
 test: setup
 	$(MAKE) --no-print-directory test-native
+	$(MAKE) --no-print-directory test-fuzz
 	$(MAKE) --no-print-directory firmware
 	$(MAKE) --no-print-directory sim
 	$(MAKE) --no-print-directory hostlib
@@ -91,6 +96,16 @@ test-native: system-packages
 
 firmware: system-packages
 	$(MAKE) --no-print-directory -C firmware all
+
+# libFuzzer on the firmware's COBS decoder and command receiver, seeded from the shared
+# vectors: 30 s per target in `make test` (60 s in all), FUZZ_SECONDS per target in `make fuzz`.
+FUZZ_SECONDS ?= 600
+.PHONY: test-fuzz fuzz
+test-fuzz: system-packages
+	$(MAKE) --no-print-directory -C firmware/fuzz run SECONDS=30
+
+fuzz: system-packages
+	$(MAKE) --no-print-directory -C firmware/fuzz run SECONDS=$(FUZZ_SECONDS)
 
 # make flash PORT=/dev/ttyACM0 [CHANNELS=4|16]: build, then upload with avrdude.
 .PHONY: flash
@@ -125,6 +140,13 @@ demo: setup
 
 bench: setup hostlib
 	$(VPY) tests/bench/run.py
+
+# Hours, not seconds: four virtual fingertips with audio, forces, events and a recording,
+# devices killed and restarted; figures soak_* into docs/benchmarks.json. Not in `test`.
+SOAK_MINUTES ?= 30
+.PHONY: soak
+soak: setup
+	$(VPY) tests/bench/bench_soak.py --minutes $(SOAK_MINUTES)
 
 vectors: venv
 	$(VPY) tests/vectors/generate.py

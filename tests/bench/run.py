@@ -20,8 +20,8 @@ sys.path.insert(0, str(ROOT))
 
 from tests.bench.machine import describe  # noqa: E402
 
-BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
-           "tasks", "reflex", "network", "realism", "check"]
+BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events", "tasks",
+           "reflex", "network", "realism", "check", "fuzz", "soak"]
 JSON_OUT = ROOT / "docs" / "benchmarks.json"
 MD_OUT = ROOT / "docs" / "benchmarks.md"
 
@@ -34,7 +34,7 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("names", nargs="*", default=BENCHES, help=f"subset of {BENCHES}")
     args = ap.parse_args()
-    unknown = set(args.names) - set(BENCHES)
+    unknown = set(args.names) - set(BENCHES) - set(OPTIONAL)
     if unknown:
         ap.error(f"unknown benchmarks: {sorted(unknown)}")
     results = json.loads(JSON_OUT.read_text()) if JSON_OUT.exists() else {}

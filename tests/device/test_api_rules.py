@@ -159,6 +159,7 @@ def test_hand_rules(device):
 
 def test_recorder_order(tmp_path):
     rec = Recorder(tmp_path / "a.mcap")
+    rec.add_device("early", info={"declared": "before start"})  # kept until start()
     with pytest.raises(RecorderError, match=r"write_event before start\(\)"):
         rec.write_event("a", "x")
     with pytest.raises(RecorderError, match="before start"):
@@ -172,7 +173,8 @@ def test_recorder_order(tmp_path):
         rec.start()
     with pytest.raises(RecorderError, match="is closed"):
         rec.add_device("b")
-    assert [r.kind for r in Recording(tmp_path / "a.mcap").records()] == ["events"]
+    assert [r.kind for r in Recording(tmp_path / "a.mcap").records()] == ["info", "events"]
+    assert Recording(tmp_path / "a.mcap").info("early") == {"declared": "before start"}
     for kw, match in (({"flush_interval": 0}, "flush_interval"),
                       ({"flush_interval": float("inf")}, "flush_interval"),
                       ({"queue_size": 0}, "queue_size"), ({"compression": "gz"}, "compression")):

@@ -90,16 +90,18 @@ def bad_file(tmp_path: Path, kind: str, like: Path, wrong: Path, suffix: str) ->
     return p
 
 
-def wrong_shape_classifier(good: dict[str, Path], out: Path) -> Path:
-    """A graph taking 7 features wearing the metadata of a real material model."""
+def wrong_shape(model: Path, out: Path, n_in: int, n_out: int) -> Path:
+    """A graph taking ``n_in`` values and giving ``n_out`` (a slice of the input), wearing
+    the metadata of the real ``model``."""
     onnx = pytest.importorskip("onnx")
-    from onnx import TensorProto, helper
+    from onnx import TensorProto, helper, numpy_helper
 
-    meta = {p.key: p.value for p in onnx.load(str(good["material"])).metadata_props}
+    meta = {p.key: p.value for p in onnx.load(str(model)).metadata_props}
+    idx = numpy_helper.from_array(np.arange(n_out, dtype=np.int64) % n_in, "idx")
     g = helper.make_graph(
-        [helper.make_node("Softmax", ["features"], ["probabilities"], axis=1)], "g",
-        [helper.make_tensor_value_info("features", TensorProto.FLOAT, ["batch", 7])],
-        [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, ["batch", 7])])
+        [helper.make_node("Gather", ["x", "idx"], ["y"], axis=1)], "g",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, ["batch", n_in])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, ["batch", n_out])], [idx])
     m = helper.make_model(g, opset_imports=[helper.make_opsetid("", 17)])
     m.ir_version = 9
     helper.set_model_props(m, meta)
@@ -120,20 +122,25 @@ def test_classify_model_of_the_other_kind_and_wrong_shape(good, tmp_path):
     line = assert_one_line(fingertip("classify", "shake", good["material"], good["wav"]),
                            good["material"])
     assert "material model, not a shake model" in line
-    p = wrong_shape_classifier(good, tmp_path / "shape.onnx")
+    p = wrong_shape(good["material"], tmp_path / "shape.onnx", 7, 7)
     line = assert_one_line(fingertip("classify", "material", p, good["wav"]), p)
     assert "shape (7)" in line
 
 
-@pytest.mark.parametrize("kind", [*KINDS, "classifier"])
+@pytest.mark.parametrize("kind", [*KINDS, "classifier", "shape"])
 def test_record_force_model(good, tmp_path, kind):
     """The model is loaded before any device is opened: no device needed to refuse it."""
     like = good["force"]
     p = (good["material"] if kind == "classifier" else
+         wrong_shape(like, tmp_path / "f3.onnx", 3, 2) if kind == "shape" else
          bad_file(tmp_path, kind, like, good["wav"], ".onnx"))
     line = assert_one_line(fingertip("record", "--port", tmp_path / "no-such-port", "-o",
                                      tmp_path / "r.mcap", "--force-model", p), p)
     assert "no-such-port" not in line
+    if kind == "shape":
+        assert "the graph takes 3" in line
+    if kind == "classifier":
+        assert "not a force model" in line
     assert not (tmp_path / "r.mcap").exists()
 
 
@@ -214,3 +221,14 @@ def test_simulator_parameters(good, tmp_path, kind):
     assert_one_line(fingertip("sim", "dataset", "calibration", tmp_path / "o", "--params", p),
                     p)
     assert not any((tmp_path / "o").glob("*.csv"))
+
+
+# --- firmware image -----------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_flash_hex(good, tmp_path, kind):
+    hex_text = b":100000000C945C000C946E000C946E000C946E00CA\n:00000001FF\n"
+    like = tmp_path / "good.hex"
+    like.write_bytes(hex_text)
+    p = bad_file(tmp_path, kind, like, good["wav"], ".hex")
+    assert_one_line(fingertip("flash", "--hex", p, "--dry-run"), p)

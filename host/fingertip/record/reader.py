@@ -134,7 +134,8 @@ class Recording:
                     self.truncated = True
                     kind = "bad CRC" if isinstance(e, CRCValidationError) else \
                         type(e).__name__
-                    self.problem = f"damaged data after the last good chunk ({kind}: {e})"
+                    self.problem = (f"damaged data after the last good chunk ({kind}: {e}); "
+                                    f"`fingertip repair` keeps the good chunks after it too")
                     return
                 if isinstance(rec, Message):
                     ch = channels.get(rec.channel_id)

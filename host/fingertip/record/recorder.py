@@ -193,6 +193,7 @@ class Recorder:
         self._state = "new"
         self._error: RecorderError | None = None
         self._told: set[str] = set()
+        self._early: list[tuple[str, tuple]] = []  # infos of devices added before start()
         self._created = False
         self.start_monotonic = 0.0
         self.stop_monotonic: float | None = None
@@ -241,6 +242,9 @@ class Recorder:
                     pass
             raise self._io_error(e, "cannot write") from e
         self._state = "running"
+        for topic_name, item in self._early:
+            self._put(topic_name, item)
+        self._early.clear()
         self._thread = threading.Thread(target=self._run, daemon=True,
                                         name=f"recorder-{self.path.name}")
         self._thread.start()
@@ -538,6 +542,9 @@ class Recorder:
             info = message_to_dict(info)
         text = info if isinstance(info, str) else json.dumps(info, default=str)
         t = time.monotonic() if host_time is None else host_time
+        if self._state == "new":  # a device declared before start(): written at start
+            self._early.append((S.topic(name, "info"), ("info", name, t, text)))
+            return True
         return self._put(S.topic(name, "info"), ("info", name, t, text))
 
     def write_encoded(self, name: str, kind: str, log_ns: int, data: bytes) -> bool:
