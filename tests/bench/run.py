@@ -22,6 +22,7 @@ from tests.bench.machine import describe  # noqa: E402
 
 BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
            "tasks"]
+BENCHES += ["vibration"]
 JSON_OUT = ROOT / "docs" / "benchmarks.json"
 MD_OUT = ROOT / "docs" / "benchmarks.md"
 
