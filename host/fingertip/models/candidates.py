@@ -369,7 +369,8 @@ def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: 
     """Leave class ``left_out`` out of training: a ``k``-fold cross-validation on the other
     classes, whose fold models also answer every recording of ``left_out``. Returns the ROC
     AUC of the unknown score (1 - top calibrated probability, whole recording) of the
-    left-out recordings against the known ones (out of fold), and the share of each
+    left-out recordings (answered by every fold model: k answers each) against the known
+    ones (out of fold), and the share of each
     answered "unknown" at the trainer's rule (the level 95 % of known recordings reach)."""
     from .reliability import auroc, unknown_score
 
@@ -395,7 +396,7 @@ def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: 
     out_scores = unknown_score(np.array([apply_temperature(r, temps[f]) for f, r in foreign]))
     level = float(np.quantile(known_scores, 0.95))
     return {"left_out": left_out, "auroc": auroc(out_scores, known_scores),
-            "known_recordings": len(known_scores), "left_out_recordings": len(out_scores),
+            "known_recordings": len(known_scores), "left_out_answers": len(out_scores),
             "left_out_answered_unknown": float(np.mean(out_scores > level)),
             "known_answered_unknown": float(np.mean(known_scores > level))}
 

@@ -634,7 +634,7 @@ class VibrationClassifier:
         w = self.pipeline.windows(rec)
         if not len(w):
             raise FeatureError(f"{rec.source or 'the recording'} lasts {rec.duration:.3f} s: "
-                               f"shorter than one window ({self.pipeline.span_s():.3f} s)")
+                               f"shorter than one window ({self.pipeline.min_span_s():.3f} s)")
         probs = self.predict(w.inputs)
         run = None
         if self.spec.input == "growing":
@@ -748,9 +748,7 @@ class _LiveGrowing:
     def __init__(self, clf: VibrationClassifier, rate: float) -> None:
         self.clf = clf
         self.rate = rate
-        self.span = int(math.ceil(clf.pipeline.span_s() * rate))
-        self.first = int(math.ceil(clf.pipeline.min_span_s() * rate))
-        self.step = clf.spec.step_s * rate
+        self.step_frames = clf.spec.step_s / clf.cfg.hop_s
         self.buf = np.zeros(0)
         self.buf_start = 0
         self.origin = 0  # where the current run of windows started (0, or after a gap)
@@ -758,6 +756,16 @@ class _LiveGrowing:
         self.expected = 0
         self.acc = np.zeros(len(clf.classes))
         self.n_acc = 0
+
+    def _bounds(self, j: int) -> tuple[int, int]:
+        """Samples (absolute) of window ``j``: the same STFT frames as a file's window
+        (:func:`~fingertip.models.anytime.growing_bounds`)."""
+        cfg, sp = self.clf.cfg, self.clf.spec
+        end = (sp.min_frames or 1) + int(round(j * self.step_frames))
+        start = max(0, end - sp.frames)
+        s = self.origin + int(round(start * cfg.hop_s * self.rate))
+        e = self.origin + int(math.ceil(((end - 1) * cfg.hop_s + cfg.win_s) * self.rate))
+        return s, e
 
     def feed(self, x: np.ndarray, first: int, chunk) -> Iterator[Prediction]:
         if first != self.expected:
@@ -769,10 +777,9 @@ class _LiveGrowing:
         self.buf = np.concatenate([self.buf, x]) if len(self.buf) else x.copy()
         clf = self.clf
         while True:
-            e = self.origin + self.first + int(round(self.next_j * self.step))
+            s, e = self._bounds(self.next_j)
             if e > self.buf_start + len(self.buf):
                 break
-            s = max(self.origin, e - self.span)
             seg = self.buf[s - self.buf_start:e - self.buf_start]
             w = clf.pipeline.windows(as_recording(seg, self.rate, "live audio", 1.0))
             self.next_j += 1
@@ -789,8 +796,7 @@ class _LiveGrowing:
                 run = (self.acc / self.n_acc)[None, :]
             host = [chunk.time_of(e - 1)]
             yield from clf._predictions(w, p, s / self.rate, host, run)
-        keep = max(self.origin, self.origin + self.first
-                   + int(round(self.next_j * self.step)) - self.span)
+        keep = self._bounds(self.next_j)[0]
         if keep > self.buf_start:
             cut = min(len(self.buf), keep - self.buf_start)
             self.buf = self.buf[cut:]
