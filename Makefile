@@ -117,6 +117,7 @@ demo: setup
 	$(VPY) -m fingertip.cli experiment pinch --trials 3 --seed 0
 
 bench: setup
+	$(MAKE) --no-print-directory -C firmware bauds
 	$(VPY) tests/bench/run.py
 
 vectors: venv
