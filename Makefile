@@ -139,6 +139,7 @@ demo: setup
 	$(VPY) -m fingertip.cli experiment pinch --trials 3 --seed 0
 
 bench: setup hostlib
+	$(MAKE) --no-print-directory -C firmware bauds
 	$(VPY) tests/bench/run.py
 
 # Hours, not seconds: four virtual fingertips with audio, forces, events and a recording,

@@ -8,7 +8,7 @@
 //   DOUT channel 0..5   D2..D7        PD2..PD7   input, pull-up (low = conversion ready)
 //   DOUT channel 6..11  A0..A5        PC0..PC5   input, pull-up
 //   DOUT channel 12..15 D8..D11       PB0..PB3   input, pull-up
-//   UART (protocol v1)  D0 / D1       PD0 / PD1  115200 baud, 8N1
+//   UART (protocol v1)  D0 / D1       PD0 / PD1  1000000 baud, 8N1
 //
 // A 4-channel build (one fingertip) uses channels 0..3 = D2..D5 = PD2..PD5; a 16-channel build
 // (four fingertips) uses all of them. The pull-ups make a missing chip read "not ready", so it
@@ -29,7 +29,13 @@
 #define FT_BUILD_ID 0
 #endif
 
-#define FT_UART_BAUD 115200UL
+// The UART rate. At 16 MHz with U2X (Arduino's default) 115200 is 117647 (+2.1 %);
+// 250000, 500000 and 1000000 are exact. 1 Mbaud cuts a 4-channel frame's time on the wire
+// from 2.4 to 0.28 ms (docs/benchmarks.md, latency budget); the host tries 1 Mbaud, then
+// 115200. Override with -DFT_UART_BAUD=... (benchmarks build the others).
+#ifndef FT_UART_BAUD
+#define FT_UART_BAUD 1000000UL
+#endif
 
 // SCK and RATE: port B.
 #define FT_SCK_ARDUINO_PIN 12

@@ -12,6 +12,8 @@ Seeds and ranges (every figure below is from these):
   knocks on the robot at 6 a minute (seeds 2000..2029), reported per tap;
 - pinch speed: the pinch trials' placements (seeds 0..24, ``make_world``), tofu and chip,
   closing speeds 0.5-32 mm/s, per detector (:mod:`fingertip.sim.pinch_speed`);
+- latency budget: the firmware ELF at 115200, 500000 and 1000000 baud, 4 and 16 channels,
+  20 simulated seconds each (``make -C firmware bauds``);
 - slip: 100 holds (seeds 0..99, ``slip_trials(100, 0)``) of five objects in turn
   (:data:`~fingertip.sim.physics.grasp.HELD_OBJECTS`: 50-250 g, friction 0.35-0.9), two
   fingertips (virtual units 100, 101) gripping at 1.15-1.6 x the least force that holds
@@ -24,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fingertip.device.fingertip import DEVICE_RATES
+from fingertip.sim import latency_budget as lb
 from fingertip.sim import pinch_speed as ps
 
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
@@ -120,8 +124,28 @@ def pinch_figures(trials: int = 25, png: Path | None = PINCH_PNG) -> dict[str, f
     return out
 
 
+def latency_figures(sim_seconds: float = 20.0) -> dict[str, float]:
+    """The real firmware in simavr at each rate, 4 and 16 channels (``make -C firmware
+    bauds`` first)."""
+    rows = [lb.measure(ch, baud, sim_seconds).row() for ch in (4, 16) for baud in lb.RATES]
+    _tables["Reflexes: latency budget of a force frame, firmware in simavr over the pty"] = \
+        lb.table(rows) + (
+            "\nconversion -> read and -> last bit sent: simulated AVR cycles (exact); host "
+            "read -> callback: wall clock on this shared machine. A real Uno adds its USB "
+            "bridge between the pin and the host's read (not simulated).\n")
+    out: dict[str, float] = {}
+    for r in rows:
+        tag = f"{r['channels']}ch_{r['baud']}"
+        out[f"frame_to_callback_p99_ms_{tag}"] = r["total_p99_ms"]
+        out[f"frame_sent_p99_ms_{tag}"] = round(r["ready_to_sent_p99_us"] / 1e3, 4)
+    default = DEVICE_RATES[0]
+    out["frame_to_callback_p99_ms"] = out[f"frame_to_callback_p99_ms_4ch_{default}"]
+    out["uart_default_baud"] = default
+    return out
+
+
 def run() -> dict[str, float]:
-    return {**contact_figures(), **slip_figures(), **pinch_figures()}
+    return {**contact_figures(), **slip_figures(), **pinch_figures(), **latency_figures()}
 
 
 def tables(figures: dict) -> dict[str, str]:
@@ -129,6 +153,12 @@ def tables(figures: dict) -> dict[str, str]:
 
 
 DESCRIPTION = {
+    "frame_to_callback_p99_ms": ("HX711 conversion ready -> frame's last bit on the UART "
+                                 "(firmware in simavr, exact) + host read -> user callback "
+                                 "(wall clock), p99, 4 channels at the default rate",
+                                 ("<=", 3.0)),
+    "uart_default_baud": ("the firmware's UART rate (pins.h; the host also tries 115200)",
+                          None),
     "pinch_max_speed_ratio": ("highest closing speed keeping 25/25 tofu and 25/25 chips intact "
                               "with fused contact, over the paper-style force-only 15 Hz one",
                               (">=", 3.0)),

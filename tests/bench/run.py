@@ -20,14 +20,8 @@ sys.path.insert(0, str(ROOT))
 
 from tests.bench.machine import describe  # noqa: E402
 
-<<<<<<< HEAD
-BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events", "tasks",
-           "reflex", "network", "realism", "check", "fuzz", "soak"]
-=======
 BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
-           "tasks"]
-BENCHES += ["vibration"]
->>>>>>> i19
+           "tasks", "reflex", "network", "realism", "check", "fuzz", "soak", "vibration"]
 JSON_OUT = ROOT / "docs" / "benchmarks.json"
 MD_OUT = ROOT / "docs" / "benchmarks.md"
 

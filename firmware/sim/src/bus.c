@@ -114,6 +114,8 @@ static avr_cycle_count_t conv_timer(avr_t *avr, avr_cycle_count_t when, void *pa
     /* simavr orders same-cycle timers arbitrarily: a value due now is always converted. */
     apply_due(s, now);
     uint64_t next = hx711_convert(c, now);
+    if (c->ch == 0 && c->ready)
+        latency_ready(&s->latency, now);
     return next ? to_avr(s, next) : 0;
 }
 
@@ -158,6 +160,7 @@ static void sck_rise(sim_t *s, uint64_t now)
     /* Power-down is "high for longer than 60 us": fire one cycle past it. */
     avr_cycle_timer_register(s->avr, avr_usec_to_cycles(s->avr, 60) + 1, pd_timer, s);
     stats_sck_rise(&s->stats, now, any_low, fresh);
+    latency_sck_rise(&s->latency, now);
     for (int i = 0; i < b->nch; i++)
         hx711_sck_rise(&b->chip[i], now);
 }

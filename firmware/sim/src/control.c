@@ -500,6 +500,7 @@ static void cmd_stats(sim_t *s, cmd_t *c)
 static void cmd_stats_reset(sim_t *s, cmd_t *c)
 {
     stats_reset(&s->stats, sim_now(s));
+    latency_reset(&s->latency);
     for (int i = 0; i < s->bus.nch; i++)
         memset(&s->bus.chip[i].n, 0, sizeof(s->bus.chip[i].n));
     s->pty.to_fw = s->pty.from_fw = s->pty.tx_dropped = s->pty.xoff_guard = s->pty.xoffs = 0;

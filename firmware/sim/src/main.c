@@ -212,7 +212,7 @@ static int setup(sim_t *s, const options_t *o, int reply_fd)
     stats_reset(&s->stats, sim_now(s));
     if (pty_open(&s->pty, o->link) || pty_attach(&s->pty, s->avr))
         return -1;
-    if (bus_attach(s, o->channels, o->dout_delay))
+    if (bus_attach(s, o->channels, o->dout_delay) || latency_attach(s))
         return -1;
     for (int i = 0; i < o->channels; i++)
         s->bus.chip[i].sigma = o->noise;

@@ -23,6 +23,7 @@
 #include "pty_bridge.h"
 #include "reply.h"
 #include "stats.h"
+#include "latency.h"
 
 #define SIM_PROTOCOL_VERSION 1
 
@@ -81,6 +82,7 @@ typedef struct sim {
 
     bus_t bus;
     stats_t stats;
+    latency_t latency;
     events_t events;
     pty_bridge_t pty;
     reply_t out;

@@ -234,6 +234,8 @@ void stats_write(sim_t *s, reply_t *r, const char *key)
     juint(r, "pending", s->events.n);
     jend(r);
 
+    latency_write(s, r, "latency");
+
     jobj_key(r, "speed");
     jfix(r, "sim_s", sim_cycles_to_us(s, s->cyc_running) * 1e-6, 6);
     jfix(r, "real_s", s->real_running, 6);

@@ -29,6 +29,11 @@ from .timesync import ClockSync
 
 log = logging.getLogger(__name__)
 
+DEVICE_RATES = (1_000_000, 115_200)
+"""UART rates a fingertip's firmware runs at, the current default first (exact at 16 MHz;
+firmware built before 1 Mbaud became the default runs at 115200): with ``baudrate=None``,
+:meth:`Fingertip.open` tries each in turn until the device answers."""
+
 StreamFactory = Callable[[str], ByteStream]
 
 
@@ -158,7 +163,7 @@ class Fingertip(FrameSource):
     """
 
     def __init__(self, port: str | None = None, *, serial_number: str | None = None,
-                 baudrate: int = 115200, open_stream: StreamFactory | None = None,
+                 baudrate: int | None = None, open_stream: StreamFactory | None = None,
                  queue_size: int = 4096, reconnect: bool = True,
                  command_timeout: float = 0.5, retries: int = 2, open_timeout: float = 4.0,
                  name: str | None = None) -> None:
@@ -172,8 +177,10 @@ class Fingertip(FrameSource):
                 raise ValueError(f"{what} must be a positive number of seconds, not {v!r}")
         self._port_arg = port
         self.serial_number = serial_number
-        self.baudrate = baudrate
-        self._open_stream = open_stream or (lambda p: open_serial(p, baudrate))
+        self._rates = (baudrate,) if baudrate else DEVICE_RATES
+        self.baudrate = self._rates[0]
+        """The rate in use (the one the device answered at, once open)."""
+        self._open_stream = open_stream or (lambda p: open_serial(p, self.baudrate))
         self.reconnect = reconnect
         self.command_timeout = command_timeout
         self.retries = retries
@@ -206,9 +213,24 @@ class Fingertip(FrameSource):
     # --- opening and closing --------------------------------------------------------------
 
     def open(self) -> Fingertip:
-        """Connect, check the protocol version, and learn the device's set-up."""
+        """Connect, check the protocol version, and learn the device's set-up. Without a
+        ``baudrate``, each of :data:`DEVICE_RATES` is tried until the device answers (a
+        wrong rate, where no frame decodes, costs ``open_timeout``)."""
         if self._status != "closed":
             return self
+        for k, rate in enumerate(self._rates):
+            self.baudrate = rate
+            try:
+                return self._open_at_rate()
+            except CommandTimeout:
+                # Whole frames decoded: the rate is right and the device is only slow.
+                if k + 1 == len(self._rates) or self._decoder.stats.frames_ok:
+                    raise
+                log.info("%s: no answer at %d baud, trying %d", self.name, rate,
+                         self._rates[k + 1])
+        raise AssertionError("no rates to try")
+
+    def _open_at_rate(self) -> Fingertip:
         self._closing.clear()
         self._connect_once()  # raises TransportError with a clear message
         self._status = "connected"
