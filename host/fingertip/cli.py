@@ -14,6 +14,9 @@ from . import __version__
 from .argtypes import dispatch
 from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
+from .frame_text import frame_json, frame_line
+from .hand_args import add_hand_args, hand_spec_from_args
+from .hand_stream import stream_hand
 from .models import calibration_cli, classifier_cli
 from .record import cli as record_cli
 from .tasks import cli as tasks_cli
@@ -156,6 +159,17 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
     import time
 
+    try:
+        spec = hand_spec_from_args(args)
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    if spec is not None:
+        if args.plot or args.plot_png:
+            log.error("--plot shows one fingertip: stream a hand without it")
+            return 2
+        return stream_hand(args, spec)
+
     plot = None
     if args.plot or args.plot_png:
         from .live_plot import LivePlot, NoDisplay
@@ -192,15 +206,9 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                 if plot is not None:
                     plot.add((f.device_time_us - first.device_time_us) / 1e6, f.counts)
                 if args.json:
-                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
-                                      "host_time": f.host_time, "counts": f.counts,
-                                      "timeout_mask": f.timeout_mask,
-                                      "saturation_mask": f.saturation_mask}), flush=True)
+                    print(frame_json(f), flush=True)
                 elif not live:
-                    print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
-                          + " ".join(f"{c:9d}" for c in f.counts)
-                          + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
-                             f"sat={f.saturation_mask:#x}"), flush=True)
+                    print(frame_line(f), flush=True)
                 elif f.arrival_time - last_print > 0.1:
                     last_print = f.arrival_time
                     span = (f.device_time_us - first.device_time_us) / 1e6
@@ -275,10 +283,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_device_args(p: argparse.ArgumentParser) -> None:
+def _add_device_args(p: argparse.ArgumentParser):
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
     g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
+    return g
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -334,7 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     st = sub.add_parser("stream", help="show the live frame stream",
                         description=_cmd_stream.__doc__)
-    _add_device_args(st)
+    add_hand_args(st, _add_device_args(st))
     st.add_argument("--count", type=int, help="stop after N frames")
     st.add_argument("--duration", type=float, help="stop after S seconds")
     st.add_argument("--json", action="store_true", help="one JSON object per frame")

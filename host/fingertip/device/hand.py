@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from .fingertip import Fingertip, Frame
@@ -43,6 +43,7 @@ class Hand:
         self._cond = threading.Condition()
         self._latest: dict[str, Frame] = {}
         self.overruns = 0
+        self._callbacks: list[Callable[[str, Frame], None]] = []
         for dev in self._devices:
             dev.add_callback(self._make_callback(dev))
 
@@ -69,6 +70,17 @@ class Hand:
     def device(self, finger: str) -> Fingertip:
         return self._fingers[finger][0]
 
+    def add_callback(self, fn: Callable[[str, Frame], None]) -> None:
+        """Call ``fn(finger, frame)`` for every finger frame, on the devices' reader
+        threads (keep it short: a recorder's queue, not processing)."""
+        with self._cond:
+            self._callbacks.append(fn)
+
+    def remove_callback(self, fn: Callable[[str, Frame], None]) -> None:
+        with self._cond:
+            if fn in self._callbacks:
+                self._callbacks.remove(fn)
+
     def _make_callback(self, dev: Fingertip):
         targets = [(name, chans) for name, (d, chans) in self._fingers.items() if d is dev]
 
@@ -80,6 +92,8 @@ class Hand:
                         self.overruns += 1
                     self._queue.append(FingerFrame(name, f))
                     self._latest[name] = f
+                    for fn in self._callbacks:
+                        fn(name, f)
                 self._cond.notify_all()
 
         return on_frame
