@@ -16,6 +16,9 @@ from .device import Fingertip, FingertipError
 from .flash import FlashError, flash
 from .sim.faults import FAULTS
 from .check import cli as check_cli
+from .frame_text import frame_json, frame_line
+from .hand_args import add_hand_args, hand_spec_from_args
+from .hand_stream import stream_hand
 from .models import calibration_cli, classifier_cli
 from .network import cli as network_cli
 from .record import cli as record_cli
@@ -159,6 +162,17 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
     import time
 
+    try:
+        spec = hand_spec_from_args(args)
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    if spec is not None:
+        if args.plot or args.plot_png:
+            log.error("--plot shows one fingertip: stream a hand without it")
+            return 2
+        return stream_hand(args, spec)
+
     plot = None
     if args.plot or args.plot_png:
         from .live_plot import LivePlot, NoDisplay
@@ -210,19 +224,9 @@ def _cmd_stream(args: argparse.Namespace) -> int:
                              f.counts if est is None else (est.fx, est.fy))
                 force = "" if est is None else _force_text(est)
                 if args.json:
-                    row = {"seq": f.seq, "device_time_us": f.device_time_us,
-                           "host_time": f.host_time, "counts": f.counts,
-                           "timeout_mask": f.timeout_mask,
-                           "saturation_mask": f.saturation_mask}
-                    if est is not None:
-                        row["force_n"] = [est.fx, est.fy] if est.ok else None
-                        row["force_status"] = int(est.status)
-                    print(json.dumps(row), flush=True)
+                    print(frame_json(f, **_force_fields(est)), flush=True)
                 elif not live:
-                    print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
-                          + " ".join(f"{c:9d}" for c in f.counts) + force
-                          + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
-                             f"sat={f.saturation_mask:#x}"), flush=True)
+                    print(frame_line(f) + force, flush=True)
                 elif f.arrival_time - last_print > 0.1:
                     last_print = f.arrival_time
                     span = (f.device_time_us - first.device_time_us) / 1e6
@@ -247,6 +251,14 @@ def _cmd_stream(args: argparse.Namespace) -> int:
               f"{st.cobs_errors}, reconnects {st.reconnects}, device resets "
               f"{st.device_resets}", file=sys.stderr)
     return 0
+
+
+def _force_fields(est) -> dict:
+    """The JSON fields of a force estimate (none without a model)."""
+    if est is None:
+        return {}
+    return {"force_n": [est.fx, est.fy] if est.ok else None,
+            "force_status": int(est.status)}
 
 
 def _force_text(est) -> str:
@@ -326,10 +338,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_device_args(p: argparse.ArgumentParser) -> None:
+def _add_device_args(p: argparse.ArgumentParser):
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
     g.add_argument("--serial", help="USB serial number of its Arduino (see `fingertip devices`)")
+    return g
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -385,7 +398,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     st = sub.add_parser("stream", help="show the live frame stream",
                         description=_cmd_stream.__doc__)
-    _add_device_args(st)
+    add_hand_args(st, _add_device_args(st))
     st.add_argument("--count", type=int, help="stop after N frames")
     st.add_argument("--duration", type=float, help="stop after S seconds")
     st.add_argument("--json", action="store_true", help="one JSON object per frame")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from ..protocol import MAX_CHANNELS
@@ -45,6 +45,7 @@ class Hand:
         self._cond = threading.Condition()
         self._latest: dict[str, Frame] = {}
         self.overruns = 0
+        self._callbacks: list[Callable[[str, Frame], None]] = []
         for dev in self._devices:
             dev.add_callback(self._make_callback(dev))
 
@@ -74,6 +75,17 @@ class Hand:
                            f"{', '.join(self._fingers)})")
         return self._fingers[finger][0]
 
+    def add_callback(self, fn: Callable[[str, Frame], None]) -> None:
+        """Call ``fn(finger, frame)`` for every finger frame, on the devices' reader
+        threads (keep it short: a recorder's queue, not processing)."""
+        with self._cond:
+            self._callbacks.append(fn)
+
+    def remove_callback(self, fn: Callable[[str, Frame], None]) -> None:
+        with self._cond:
+            if fn in self._callbacks:
+                self._callbacks.remove(fn)
+
     def _make_callback(self, dev: Fingertip):
         targets = [(name, chans) for name, (d, chans) in self._fingers.items() if d is dev]
 
@@ -85,6 +97,8 @@ class Hand:
                         self.overruns += 1
                     self._queue.append(FingerFrame(name, f))
                     self._latest[name] = f
+                    for fn in self._callbacks:
+                        fn(name, f)
                 self._cond.notify_all()
 
         return on_frame

@@ -20,6 +20,8 @@ from pathlib import Path
 
 from ..argtypes import dispatch, number
 from ..badfile import reports_bad_files
+from ..frame_text import frame_json, frame_line
+from ..hand_args import add_hand_args, hand_spec_from_args
 log = logging.getLogger("fingertip")
 
 
@@ -82,6 +84,17 @@ def _cmd_record(args: argparse.Namespace) -> int:
         log.error("%s already exists (choose another name, or add --force to replace it)",
                   out)
         return 2
+    try:
+        spec = hand_spec_from_args(args)
+        if spec is not None and (args.audio is not None or args.audio_file):
+            raise ValueError("a hand's microphones are given with --hand-audio")
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    if spec is not None:
+        from .hand_record import record_hand
+
+        return record_hand(args, spec, force_model, out)
 
     audio = None
     try:
@@ -239,15 +252,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
                     break
                 n += 1
                 if args.json:
-                    print(json.dumps({"seq": f.seq, "device_time_us": f.device_time_us,
-                                      "host_time": f.host_time, "counts": f.counts,
-                                      "timeout_mask": f.timeout_mask,
-                                      "saturation_mask": f.saturation_mask}), flush=True)
+                    print(frame_json(f), flush=True)
                 else:
-                    print(f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} "
-                          + " ".join(f"{c:9d}" for c in f.counts)
-                          + ("" if f.ok else f"  timeout={f.timeout_mask:#x} "
-                             f"sat={f.saturation_mask:#x}"), flush=True)
+                    print(frame_line(f), flush=True)
     except KeyboardInterrupt:
         pass
     except BrokenPipeError:  # `... | head`: the reader has gone, which is fine
@@ -325,6 +332,7 @@ def add_parsers(sub) -> None:
     g.add_argument("--from", dest="from_net", choices=("dds", "zenoh", "lsl"),
                    help="record what `fingertip publish` sends on the network (--name: "
                         "comma-separated fingertips)")
+    add_hand_args(r, g)
     r.add_argument("-o", "--output", required=True, metavar="FILE.mcap",
                    help="the recording to write")
     r.add_argument("--duration", type=number(float, 0, lo_open=True), metavar="S",

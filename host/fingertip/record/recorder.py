@@ -25,7 +25,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from struct import error as struct_error
 from typing import Any
@@ -416,6 +416,30 @@ class Recorder:
             self.add_audio(name, sample_rate=source.sample_rate, channels=source.channels,
                            dtype=source.dtype.name, subtype=getattr(source, "subtype", None),
                            source=source.name)
+        return self._pump(source, name, lambda chunk: self._write_audio(name, chunk),
+                          max_seconds)
+
+    def record_audio_split(self, source: AudioSource, names: Sequence[str], *,
+                           max_seconds: float = 0.1) -> threading.Thread:
+        """As :meth:`record_audio` for a multi-channel source whose channel k is the
+        microphone of fingertip ``names[k]`` (one 4-input interface for a hand): each
+        channel is recorded on its own fingertip's audio topic."""
+        if source.channels < len(names):
+            raise ValueError(f"{source.name} has {source.channels} channel(s) for "
+                             f"{len(names)} fingertips")
+        for name in names:
+            if name not in self._audio:
+                self.add_audio(name, sample_rate=source.sample_rate, channels=1,
+                               dtype=source.dtype.name,
+                               subtype=getattr(source, "subtype", None), source=source.name)
+
+        def write(chunk: Chunk) -> None:
+            for k, name in enumerate(names):
+                self._write_audio(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
+        return self._pump(source, names[0], write, max_seconds)
+
+    def _pump(self, source: AudioSource, name: str, write, max_seconds: float
+              ) -> threading.Thread:
         if not source.running and not source.finished:
             source.start()
         max_frames = max(1, int(source.sample_rate * max_seconds))
@@ -428,10 +452,10 @@ class Recorder:
                         if source.finished:
                             break
                         continue
-                    self._write_audio(name, chunk)
+                    write(chunk)
                 # What was captured before the stop is still recorded.
                 while (chunk := source.read(max_frames, timeout=0)) is not None:
-                    self._write_audio(name, chunk)
+                    write(chunk)
             except Exception as e:  # a broken source must not kill the recording silently
                 log.error("audio %s: %s", name, e)
                 self._write_event(name, "audio_error", 0.0, detail=str(e))

@@ -1,0 +1,18 @@
+"""How the commands print a frame: one JSON object, or one line of text."""
+from __future__ import annotations
+
+import json
+from typing import Any
+
+
+def frame_json(f: Any, **extra: Any) -> str:
+    """One JSON object per frame (``extra`` first, e.g. ``finger=...``)."""
+    return json.dumps({**extra, "seq": f.seq, "device_time_us": f.device_time_us,
+                       "host_time": f.host_time, "counts": f.counts,
+                       "timeout_mask": f.timeout_mask, "saturation_mask": f.saturation_mask})
+
+
+def frame_line(f: Any) -> str:
+    """seq, device time (s), the counts, and the masks when a channel is not ok."""
+    return (f"{f.seq:5d} {f.device_time_us / 1e6:12.6f} " + " ".join(f"{c:9d}" for c in f.counts)
+            + ("" if f.ok else f"  timeout={f.timeout_mask:#x} sat={f.saturation_mask:#x}"))
