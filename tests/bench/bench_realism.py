@@ -5,7 +5,8 @@ each one session of the paper's protocol (66 trials x 40 readings, 8 s pauses), 
 random 80/20 split of the readings; the paper's MLP (fingertip.sim.paper_method) and ours
 (``fingertip calibrate fit``: fit_calibration with its default models and own choice) on the
 same training rows, scored on the same test rows. Also: whole trials held out instead, the
-ideal sensor (no error source: the old simulator's figure), and the ablation (every source
+ideal sensor (``Realism.ideal()``: unit spread and white noise only, the simulator the
+project's earlier figures came from), and the ablation (every source
 on but one) for docs/simulation.md's error budget. ``ablation_only()`` (each source alone)
 is not part of the bench run: it doubles its cost; docs/simulation.md quotes one run of it.
 
@@ -56,7 +57,7 @@ def _force() -> dict[str, float]:
     out["force_rmse_ratio_vs_paper_method"] = round(float(np.sqrt(ours / paper)), 4)
     out["sim_paper_method_force_mse_n2_trial_split"] = round(
         _mean_mse(Realism(), split="trials")[0], 4)
-    ideal_p, ideal_o = _mean_mse(Realism.none(), ours=True)
+    ideal_p, ideal_o = _mean_mse(Realism.ideal(), ours=True)
     out["ideal_sensor_paper_method_force_mse_n2"] = round(ideal_p, 4)
     out["ideal_sensor_ours_force_mse_n2"] = round(ideal_o, 4)
     for name in Realism.sources():
@@ -110,7 +111,8 @@ DESCRIPTION = {
     "sim_paper_method_force_mse_n2_trial_split": (
         "paper's method with whole trials held out instead of random readings (N^2)", None),
     "ideal_sensor_paper_method_force_mse_n2": (
-        "ideal sensor (no error source, nominal unit): paper's method (N^2)", None),
+        "ideal sensor (unit spread and HX711 white noise only: the earlier simulator): "
+        "paper's method (N^2)", None),
     "ideal_sensor_ours_force_mse_n2": ("ideal sensor: ours (N^2)", None),
     "sim_paper_method_material_accuracy": (
         "the paper's material method (STFT, 86-frame windows, MLP, random split of windows) on "
