@@ -1,6 +1,8 @@
 """Force calibration: held-out error and onnxruntime latency of each model type.
 
-Virtual unit 1 (fingertip.sim.physics), tared, then three consecutive sweeps of the paper's
+Ideal sensor (``Realism.ideal()``: the unit's spread and the HX711's white noise, none of the
+error budget's sources; bench_realism has the realistic figures): virtual unit 1, tared, then
+three consecutive sweeps of the paper's
 protocol (angles -50..50 deg, heights 0..5 mm, 1.5 mm steps to 30 mm and back). The first
 two sweeps (5280 rows) go to ``fit_calibration`` with its defaults: whole (angle, height)
 cells held out (a quarter, both sweeps of a cell on the test side), every model exported to
@@ -19,13 +21,13 @@ import numpy as np
 
 from fingertip.models.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays, rmse
 from fingertip.models.force import ForceModel
-from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
 
 UNIT = 1
 
 
 def _sweeps(unit: int, n: int):
-    sensor = VirtualStrainSensor(unit)
+    sensor = VirtualStrainSensor(unit, realism=Realism.ideal())
     tare = np.rint(sensor.counts_batch(np.zeros((16, 2)), 0.0, np.arange(1, 17) / 80)
                    .mean(axis=0))
     out, t0 = [], 1_000_000
@@ -87,11 +89,12 @@ def run() -> dict[str, float]:
 _MODELS = ", ".join(f"{i} {n}" for i, n in enumerate(DEFAULT_MODELS))
 
 DESCRIPTION = {
-    "force_rmse_n": ("force RMSE (N) of the chosen model on held-out (angle, height) cells, "
-                     "virtual unit 1, 0-5 N (paper: MSE 0.15 N^2, about 0.39 N)",
+    "force_rmse_n": ("ideal sensor: force RMSE (N) of the chosen model on held-out (angle, "
+                     "height) cells, virtual unit 1, 0-5 N (paper: MSE 0.15 N^2, about 0.39 N)",
                      ("<=", 0.2)),
-    "force_mse_n2": ("same as MSE (N^2, vector)", ("<=", 0.15)),
-    "force_rmse_later_sweep_n": ("chosen model through ForceModel on a later sweep of the "
+    "force_mse_n2": ("ideal sensor: same as MSE (N^2, vector)", ("<=", 0.15)),
+    "force_rmse_later_sweep_n": ("ideal sensor: chosen model through ForceModel on a later "
+                                 "sweep of the "
                                  "same unit, never seen (N)", ("<=", 0.2)),
     "force_latency_us": ("ForceModel.estimate, chosen model, one frame, p50 (us)",
                          ("<", 100)),

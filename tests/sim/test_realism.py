@@ -30,6 +30,7 @@ def test_switches():
     assert Realism().without("creep", "skin").active == tuple(
         n for n in Realism.sources() if n not in ("creep", "skin"))
     assert Realism().only("thermal").active == ("thermal",)
+    assert Realism.ideal().active == ("hx711_noise", "unit_spread")
     with pytest.raises(ValueError, match="unknown error source"):
         Realism().without("gremlins")
 

@@ -2,12 +2,13 @@
 
 :class:`Grip` runs the paper's controller on any subset of fingers (all four for the pinch
 and the cups, two opposite ones for a box): it zeroes each finger's force estimate with the
-fingers open, closes every finger whose filtered force (a short moving average of the
-calibrated force magnitude) is below ``F_th`` by one increment per sensor frame, and then
-holds the force (re-closing a finger whose force sags) for as long as the caller's motion
-lasts. It aborts to a safe state (arm stopped, fingers opened) on a force above
-``max_force_n``, a timeout, or a sensor fault (no frames, timeout/saturation bits,
-non-finite estimates); :attr:`Grip.result` says why.
+fingers open (as a vector: a calibrated model's estimate at rest is a small force in some
+direction, and subtracting magnitudes would hide or double it), closes every finger whose
+filtered force (a short moving average of the calibrated force magnitude) is below
+``F_th`` by one increment per sensor frame, and then holds the force (re-closing a finger
+whose force sags) for as long as the caller's motion lasts. It aborts to a safe state (arm
+stopped, fingers opened) on a force above ``max_force_n``, a timeout, or a sensor fault (no
+frames, timeout/saturation bits, non-finite estimates); :attr:`Grip.result` says why.
 """
 from __future__ import annotations
 
@@ -85,6 +86,12 @@ def force_magnitudes(hand: RobotHand, frames: FrameSet, fingers: Sequence[str]
                      ) -> dict[str, float]:
     """Each finger's calibrated force magnitude in one frame set; SensorFault when a frame is
     missing, flagged or gives a non-finite estimate."""
+    return {f: math.hypot(*v) for f, v in force_vectors(hand, frames, fingers).items()}
+
+
+def force_vectors(hand: RobotHand, frames: FrameSet, fingers: Sequence[str]
+                  ) -> dict[str, tuple[float, float]]:
+    """Each finger's calibrated (Fx, Fy) in one frame set (SensorFault as above)."""
     out = {}
     for f in fingers:
         fr = frames.get(f)
@@ -97,7 +104,7 @@ def force_magnitudes(hand: RobotHand, frames: FrameSet, fingers: Sequence[str]
         fx, fy = float(est.fx), float(est.fy)
         if not (math.isfinite(fx) and math.isfinite(fy)):
             raise SensorFault(f"finger {f}: non-finite force estimate")
-        out[f] = math.hypot(fx, fy)
+        out[f] = (fx, fy)
     return out
 
 
@@ -120,7 +127,7 @@ class Grip:
             raise ValueError(f"fingers must be among {hand.fingers}, not {sorted(unknown)}")
         self.result = PinchResult(PinchOutcome.HELD)
         self._bufs: dict[str, deque] = {f: deque(maxlen=cfg.window) for f in self.fingers}
-        self._baseline = dict.fromkeys(self.fingers, 0.0)
+        self._baseline = dict.fromkeys(self.fingers, (0.0, 0.0))
         self._t0: float | None = None
         self._arrival = 0.0
         self.now = 0.0
@@ -133,8 +140,8 @@ class Grip:
         self.result.outcome, self.result.detail = outcome, detail
         return False
 
-    def _read(self) -> tuple[dict[str, float], float] | None:
-        """One frame set -> (each finger's force magnitude, arrival time); None: aborted."""
+    def _read(self) -> tuple[dict[str, tuple[float, float]], float] | None:
+        """One frame set -> (each finger's (Fx, Fy), arrival time); None: aborted."""
         frames = self.hand.read(self.cfg.read_timeout_s)
         if frames is None:
             self._abort(PinchOutcome.SENSOR_FAULT, "no frames")
@@ -144,17 +151,20 @@ class Grip:
         self.now = max(fr.host_time for fr in frames.values())
         self._t0 = self.now if self._t0 is None else self._t0
         try:
-            return force_magnitudes(self.hand, frames, self.fingers), arrival
+            return force_vectors(self.hand, frames, self.fingers), arrival
         except SensorFault as e:
             self._abort(PinchOutcome.SENSOR_FAULT, str(e))
             return None
 
-    def _filtered(self, mags: dict[str, float], phase: str) -> dict[str, float] | None:
-        """Baseline-corrected moving averages; None after a force or timeout abort."""
+    def _filtered(self, vecs: dict[str, tuple[float, float]], phase: str
+                  ) -> dict[str, float] | None:
+        """Moving averages of the baseline-corrected force magnitudes; None after a force or
+        timeout abort."""
         cfg, res = self.cfg, self.result
         filt = {}
-        for f, m in mags.items():
-            self._bufs[f].append(m - self._baseline[f])
+        for f, (fx, fy) in vecs.items():
+            bx, by = self._baseline[f]
+            self._bufs[f].append(math.hypot(fx - bx, fy - by))
             filt[f] = sum(self._bufs[f]) / len(self._bufs[f])
         res.forces_n = filt
         res.peak_n = max(res.peak_n, max(filt.values()))
@@ -184,13 +194,14 @@ class Grip:
 
     def close(self) -> bool:
         """Zero the estimates (fingers open), then close until every finger reaches F_th."""
-        rows: list[dict[str, float]] = []
+        rows: list[dict[str, tuple[float, float]]] = []
         while len(rows) < self.cfg.baseline_frames:
             got = self._read()
             if got is None:
                 return False
             rows.append(got[0])
-        self._baseline = {f: float(np.mean([r[f] for r in rows])) for f in self.fingers}
+        self._baseline = {f: (float(np.mean([r[f][0] for r in rows])),
+                              float(np.mean([r[f][1] for r in rows]))) for f in self.fingers}
         while True:
             got = self._next("close")
             if got is None:

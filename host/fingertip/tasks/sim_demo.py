@@ -11,11 +11,12 @@ estimate therefore carries every sensor error of the virtual fingertips.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .grip import force_magnitudes
+from .grip import force_vectors
 from .pinch import demonstrate_threshold
 from .sim_world import ObjectSpec, make_world
 
@@ -43,19 +44,21 @@ def demonstrate(spec: ObjectSpec, firmness_n: float, *, seed: int, step_mm: floa
     world, hand, arm = make_world(spec, seed)
     fingers = list(hand.fingers)
 
-    def read() -> dict[str, float]:
+    def read() -> dict[str, tuple[float, float]]:
         frames = hand.read(0.5)
         if frames is None:
             raise RuntimeError("the simulated hand sent no frames during the demonstration")
-        return force_magnitudes(hand, frames, fingers)
+        return force_vectors(hand, frames, fingers)
 
     base = [read() for _ in range(baseline_frames)]
-    baseline = {f: float(np.mean([r[f] for r in base])) for f in fingers}
+    # The estimate at rest is zeroed as a vector, as the grip does (grip.Grip.close).
+    baseline = {f: np.mean([r[f] for r in base], axis=0) for f in fingers}
     rows: list[dict[str, float]] = []
     lifting = False
     for _ in range(max_frames):
-        mags = read()
-        rows.append({f: mags[f] - baseline[f] for f in fingers})
+        vecs = read()
+        rows.append({f: math.hypot(vecs[f][0] - baseline[f][0], vecs[f][1] - baseline[f][1])
+                     for f in fingers})
         true = world.contact_forces()
         closing = {f: step_mm for f in fingers if true[f] < firmness_n}
         if closing:

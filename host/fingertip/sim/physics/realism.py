@@ -18,8 +18,9 @@ session also meets, with sizes from datasheets or published measurements
 - ``unit_spread``: glue and placement spread between units (fingertip.toml [variation]);
 - ``mount``: relaxation of the TPU base that carries part of the moment past the gauges.
 
-``Realism()`` has every source on (the default of every virtual unit); ``Realism.none()``
-is the ideal sensor; ``Realism().without("creep")`` drops one, for an ablation.
+``Realism()`` has every source on (the default of every virtual unit); ``Realism.ideal()``
+is the earlier, ideal simulator (unit spread and white noise only); ``Realism.none()`` has
+nothing; ``Realism().without("creep")`` drops one, for an ablation.
 """
 from __future__ import annotations
 
@@ -62,8 +63,14 @@ class Realism:
 
     @classmethod
     def none(cls) -> Realism:
-        """The ideal sensor: none of the sources."""
+        """None of the sources: the nominal unit, noiseless, at the reference temperature."""
         return cls(**{name: False for name in cls.sources()})
+
+    @classmethod
+    def ideal(cls) -> Realism:
+        """The "ideal sensor" of the project's earlier figures: each unit's own spread and the
+        HX711's white noise, nothing else (the simulator before the error budget)."""
+        return cls.none().only("hx711_noise", "unit_spread")
 
     def without(self, *names: str) -> Realism:
         return dataclasses.replace(self, **{_checked(n): False for n in names})
