@@ -171,7 +171,8 @@ class Fingertip(FrameSource):
             raise ValueError("give exactly one of port or serial_number")
         check_int("queue_size", queue_size, 1, 1 << 24)
         check_int("retries", retries, 0, 100)
-        check_int("baudrate", baudrate, 1, 10_000_000)
+        if baudrate is not None:
+            check_int("baudrate", baudrate, 1, 10_000_000)
         for what, v in (("command_timeout", command_timeout), ("open_timeout", open_timeout)):
             if not (isinstance(v, int | float) and 0 < v < float("inf")):
                 raise ValueError(f"{what} must be a positive number of seconds, not {v!r}")

@@ -357,9 +357,12 @@ class FeaturePipeline:
 
     @property
     def input_shape(self) -> tuple[int, ...]:
-        """One window's input: (3 x bands,) pooled, or (frames, bands) spectrogram."""
+        """One window's input: (statistics x bands,) pooled or growing, or (frames, bands)
+        spectrogram."""
         n = self.cfg.n_bands
-        return (3 * n,) if self.spec.input == "pooled" else (self.spec.frames, n)
+        if self.spec.input == "spectrogram":
+            return (self.spec.frames, n)
+        return (len(self.spec.stats) * n,)
 
     def span_s(self) -> float:
         """Seconds of audio one window needs."""

@@ -72,8 +72,9 @@ def _cmd_record(args: argparse.Namespace) -> int:
         check_name(args.name)
         onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
                                            or Path(args.force_model).is_file())
-        force_model = load_force_model(args.force_model) \
-            if args.force_model and not onnx else None
+        # An ONNX model is read here, before any device is opened, so a bad file is
+        # refused at once; it is checked against the fingertip once that is open.
+        force_model = load_force_model(args.force_model) if args.force_model else None
     except ValueError as e:
         log.error("%s", e)
         return 2
