@@ -38,6 +38,16 @@ def test_standard_type_hashes_match_ros2(store):
         assert type_hash(name) == ts.hash_rihs01(name)
 
 
+def test_discovery_info_types_match_jazzy_and_kilted():
+    """ros_discovery_info's types, from our definitions, hash as rmw_dds_common's do."""
+    from fingertip.network.ros_types import GID, NODE_ENTITIES, PARTICIPANT_ENTITIES
+
+    for store in (Stores.ROS2_JAZZY, Stores.ROS2_KILTED):
+        ts = get_typestore(store)
+        for name in (GID, NODE_ENTITIES, PARTICIPANT_ENTITIES):
+            assert type_hash(name) == ts.hash_rihs01(name)
+
+
 def test_custom_type_hashes_are_stable_and_distinct():
     hashes = {type_hash(n) for n in (S.STRAIN_RAW, S.AUDIO_CHUNK, S.EVENT)}
     assert len(hashes) == 3 and all(h.startswith("RIHS01_") and len(h) == 71 for h in hashes)

@@ -126,7 +126,7 @@ class DdsNode:
 
     def __init__(self, env: Mapping[str, str] | None = None) -> None:
         self._dds = require("cyclonedds", "ROS 2 over DDS (--transport dds)")
-        from cyclonedds.core import InstanceState, Qos, SampleState, ViewState, WaitSet
+        from cyclonedds.core import InstanceState, Policy, Qos, SampleState, ViewState, WaitSet
         from cyclonedds.domain import Domain, DomainParticipant
 
         self._Qos = Qos
@@ -136,11 +136,15 @@ class DdsNode:
         try:
             # The domain must outlive the participant: keep a reference.
             self._domain = Domain(self.domain_id, cfg) if cfg else None
-            self.participant = DomainParticipant(self.domain_id)
+            # rmw marks every participant with its security enclave ("/" by default).
+            self.participant = DomainParticipant(
+                self.domain_id, qos=Qos(Policy.Userdata(b"enclave=/;")))
         except Exception as e:
             raise DdsError(f"cannot start DDS on domain {self.domain_id}: {e}") from e
         self._topics: dict[str, object] = {}
         self._writers: list = []
+        self._reader_entities: list = []
+        self._graph = None
         self._readers: dict[object, Callable[[bytes], None]] = {}
         self._waitset = WaitSet(self.participant)
         self._conds: dict[object, object] = {}
@@ -212,6 +216,7 @@ class DdsNode:
         r = DataReader(self.participant, self._topic(dds_name, type_name),
                        self.qos(profile, type_name if hashed else None, depth))
         cond = ReadCondition(r, self._mask)
+        self._reader_entities.append(r)
         with self._lock:
             self._readers[r] = on_data
             self._conds[r] = cond
@@ -242,6 +247,37 @@ class DdsNode:
                         except Exception:  # one bad sample or handler must not stop reading
                             log.exception("handling a sample of %s failed",
                                           r.topic.get_name())
+
+    # --- the ROS graph --------------------------------------------------------------------------
+
+    def announce(self, node_name: str = "fingertip", namespace: str = "/") -> None:
+        """Tell ROS 2 tools (``ros2 node list``, ``ros2 topic info -v``) that one node owns
+        this participant's readers and writers: ``ros_discovery_info``, as rmw_dds_common
+        writes it since Jazzy (16-byte GIDs, the DDS GUIDs). Call again after adding
+        readers or writers; late joiners get the latest (transient local)."""
+        try:
+            self._announce(node_name, namespace)
+        except Exception as e:  # the graph is a courtesy to ROS tools: never fatal
+            log.warning("could not announce the node on ros_discovery_info: %s", e)
+
+    def _announce(self, node_name: str, namespace: str) -> None:
+        from cyclonedds.pub import DataWriter
+
+        from .ros_types import GID, NODE_ENTITIES, PARTICIPANT_ENTITIES
+
+        Gid, Node = idl_struct(GID), idl_struct(NODE_ENTITIES)
+        Info = idl_struct(PARTICIPANT_ENTITIES)
+        if self._graph is None:
+            self._graph = DataWriter(
+                self.participant, self._topic("ros_discovery_info", PARTICIPANT_ENTITIES),
+                self.qos(LATCHED, PARTICIPANT_ENTITIES))
+
+        def gid(entity) -> object:
+            return Gid(data=list(entity.guid.bytes))
+        node = Node(node_namespace=namespace, node_name=node_name,
+                    reader_gid_seq=[gid(r) for r in self._reader_entities],
+                    writer_gid_seq=[gid(w) for w in self._writers])
+        self._graph.write(Info(gid=gid(self.participant), node_entities_info_seq=[node]))
 
     # --- services -------------------------------------------------------------------------------
 
@@ -321,6 +357,7 @@ class DdsTransport:
         for kind, schema in S.TOPIC_KINDS.items():
             self._writers[name, kind] = self.node.writer(
                 ros_topic(S.topic(name, kind)), schema, KIND_PROFILE[kind])
+        self.node.announce()
 
     def publish(self, name: str, kind: str, msg) -> None:
         self._writers[name, kind](self._encoders[kind](msg))
@@ -345,6 +382,7 @@ class DdsTransport:
 
         if self._clock is None:
             self._clock = self.node.writer("rt/clock", CLOCK, SENSOR)
+            self.node.announce()
         sec, nsec = divmod(int(ns), 1_000_000_000)
         self._clock(b"\x00\x01\x00\x00" + struct.pack("<iI", sec, nsec))
 
@@ -352,6 +390,7 @@ class DdsTransport:
         """``std_srvs/srv/Trigger`` at ``/fingertip/<name>/tare``."""
         service = f"/fingertip/{name}/tare"
         self.services[service] = self.node.trigger_service(service, handler)
+        self.node.announce()
         return self.services[service]
 
     def close(self) -> None:
@@ -370,6 +409,7 @@ def subscribe(node: DdsNode, names: list[str], on_message: Callable[[str, str, b
             node.reader(ros_topic(S.topic(name, kind)), S.TOPIC_KINDS[kind], KIND_PROFILE[kind],
                         lambda data, _n=name, _k=kind: on_message(_n, _k, data),
                         depth=1000 if kind != "info" else None)
+    node.announce("fingertip_recorder")
 
 
 def check_trigger_request(data: bytes) -> tuple[tuple[int, int] | None, str | None, str]:

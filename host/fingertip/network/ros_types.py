@@ -30,9 +30,19 @@ SERVICE_DEFS: dict[str, str] = {
 }
 
 CLOCK = "rosgraph_msgs/msg/Clock"
+GID = "rmw_dds_common/msg/Gid"
+NODE_ENTITIES = "rmw_dds_common/msg/NodeEntitiesInfo"
+PARTICIPANT_ENTITIES = "rmw_dds_common/msg/ParticipantEntitiesInfo"
 OTHER_DEFS: dict[str, str] = {
     # /clock, for subscribers with use_sim_time while a recording is replayed.
     CLOCK: "builtin_interfaces/Time clock",
+    # ros_discovery_info, which tells ROS 2 tools which node owns which readers and writers
+    # (rmw_dds_common as of Jazzy and Kilted: 16-byte GIDs; Humble's are 24 bytes).
+    GID: "char[16] data",
+    NODE_ENTITIES: "string<=256 node_namespace\nstring<=256 node_name\n"
+                   "rmw_dds_common/Gid[] reader_gid_seq\nrmw_dds_common/Gid[] writer_gid_seq",
+    PARTICIPANT_ENTITIES: "rmw_dds_common/Gid gid\n"
+                          "rmw_dds_common/NodeEntitiesInfo[] node_entities_info_seq",
 }
 
 _PRIMITIVES = ("bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
@@ -58,9 +68,11 @@ def _fields(text: str) -> list[tuple[str, str]]:
     out = []
     for line in text.splitlines():
         line = line.split("#", 1)[0].strip()
-        if not line or "=" in line:
+        if not line:
             continue
         ftype, fname = line.split()[:2]
+        if "=" in fname:  # a constant (NAME=value), not a field
+            continue
         out.append((ftype, fname))
     return out
 
@@ -86,13 +98,12 @@ def fields(name: str) -> list[tuple[str, str]]:
     """Fields of type ``name`` as ``(full type or primitive[], field name)``."""
     out = []
     for ftype, fname in _fields(definitions()[full_name(name)]):
-        seq = ftype.endswith("[]")
-        base = ftype[:-2] if seq else ftype
-        if base == "builtin_interfaces/Time" or "/" in base:
+        base, bracket, size = ftype.partition("[")
+        if "/" in base:
             base = full_name(base)
-        elif base not in _PRIMITIVES:
+        elif base.split("<=")[0] not in _PRIMITIVES:
             raise ValueError(f"{name}.{fname}: unsupported field type {ftype!r}")
-        out.append((base + ("[]" if seq else ""), fname))
+        out.append((base + bracket + size, fname))
     return out
 
 
@@ -138,9 +149,15 @@ def idl_struct(name: str) -> type:
         # of the DDS type here.
         members.update(guid=T.uint64, seq=T.int64)
     for ftype, fname in fields(name):
-        seq = ftype.endswith("[]")
-        base = ftype[:-2] if seq else ftype
-        t = prim[base] if base in prim else idl_struct(base)
-        members[fname] = T.sequence[t] if seq else t
+        base, _, size = ftype.partition("[")
+        if base.startswith("string<="):  # bounded string
+            t = T.bounded_str[int(base[len("string<="):])]
+        else:
+            t = prim[base] if base in prim else idl_struct(base)
+        if size == "]":
+            t = T.sequence[t]
+        elif size:  # fixed array T[N]
+            t = T.array[t, int(size[:-1])]
+        members[fname] = t
     cls_name = full_name(name).split("/")[-1] + "_"
     return idl.make_idl_struct(cls_name, dds_type_name(name), members)
