@@ -345,8 +345,8 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
             out.append(_r("channel mapping", FAIL, f"reads the {FACES[other]} gauge",
                           f"{FACES[ch]} gauge", ch, "swapped-data",
                           f"chips {ch} and {other} have their DOUT (data) wires swapped: swap "
-                          f"them back, or use channel_map {mapping['channel_map']} from the "
-                          "JSON report"))
+                          f"them back (or keep channel_map {mapping['channel_map']} from the "
+                          "JSON report: a calibration learns any channel order)"))
         else:
             out.append(_r("channel mapping", PASS, f"{FACES[ch]} gauge",
                                    f"{FACES[ch]} gauge",
@@ -355,7 +355,8 @@ def check_presses(responses: dict[int, np.ndarray | None], skip: set[int] = froz
         out.append(_r("polarity", st, "reversed" if sign[ch] < 0 else "as expected",
                       "pressed face rises", ch, "reversed-gauge",
                       f"channel {ch} is reversed: swap its A+ and A- (or E+ and E-) wires at "
-                      "the HX711, or use the sign in the JSON report's mapping"))
+                      "the HX711 (or keep the sign in the JSON report's mapping: a "
+                      "calibration learns any sign)"))
     # Sensitivity: each channel's agreement with its face's pattern, against the others'.
     own = np.array([abs(score[ch, slot[ch]]) for ch in range(4)])
     good = [ch for ch in range(4) if ch not in skip]
