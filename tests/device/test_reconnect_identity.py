@@ -10,14 +10,7 @@ from fingertip import Fingertip
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.pty_device import PtyDevice
 
-
-def wait_for(cond, timeout: float) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return True
-        time.sleep(0.02)
-    return False
+from .test_fingertip_pty import wait_for
 
 
 def test_a_foreign_device_on_the_path_is_refused(tmp_path):
