@@ -68,7 +68,7 @@ void checkValid(const ftp::RxResult& r) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   ftp::CommandReceiver bytewise;
   ftp::CommandReceiver chunked;
-  ftp::RxResult a[1];
+  ftp::RxResult a;
   uint32_t delimiters = 0;
   if (size > (1u << 16)) return 0;
 
@@ -76,13 +76,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static ftp::RxResult verdicts[1 << 16];
   size_t nv = 0;
   for (size_t i = 0; i < size; ++i) {
-    if (bytewise.feed(data[i], a[0])) {
+    if (bytewise.feed(data[i], a)) {
       ++delimiters;
-      checkValid(a[0]);
-      if (a[0].error == ftp::RxError::UnknownType || a[0].error == ftp::RxError::BadPayload) {
-        require(a[0].nack != ftp::NackError::None);
+      checkValid(a);
+      if (a.error == ftp::RxError::UnknownType || a.error == ftp::RxError::BadPayload) {
+        require(a.nack != ftp::NackError::None);
       }
-      if (nv < sizeof verdicts / sizeof verdicts[0]) verdicts[nv++] = a[0];
+      if (nv < sizeof verdicts / sizeof verdicts[0]) verdicts[nv++] = a;
     }
   }
   require(total(bytewise.counters()) == delimiters);

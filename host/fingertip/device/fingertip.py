@@ -76,6 +76,16 @@ def check_int(name: str, value: object, lo: int, hi: int) -> int:
     return v
 
 
+def _identity(info: Info) -> tuple:
+    """What must not change across a reconnect: protocol, firmware, build, channels."""
+    return (info.protocol_major, tuple(info.firmware_version), info.build_id, info.channels)
+
+
+def _describe(ident: tuple) -> str:
+    major, fw, build, channels = ident
+    return f"{'.'.join(map(str, fw))} build {build:08x}, {channels} channels, protocol v{major}"
+
+
 def check_tare_samples(samples: object) -> int:
     """Readings a tare averages: 1..256, or 0 to clear the offsets (the firmware's limit)."""
     return check_int("tare samples", samples, 0, MAX_TARE_SAMPLES)
@@ -128,6 +138,9 @@ class BridgeStats:
     callback_errors: int = 0
     command_retries: int = 0
     log_lines: int = 0
+    foreign_devices: int = 0
+    """Reconnects refused because another kind of device answered on the port (another
+    firmware, build or channel count): its frames are never handed out."""
 
 
 @dataclass
@@ -209,6 +222,14 @@ class Fingertip(FrameSource):
         self._reader: threading.Thread | None = None
         self._restore_needed = threading.Event()
         self._restorer: threading.Thread | None = None
+        # After a reconnect, frames wait in _held until the device on the port proves to be
+        # the one opened (same firmware, build and channels): a path can be taken by another
+        # device meanwhile (a pty number reused, another board on /dev/ttyACM0).
+        self._identity: tuple | None = None
+        self._verifying = False
+        self._held: deque[Frame] = deque(maxlen=1024)
+        self._verdict: tuple[int, str] | None = None  # (connection, "ok" | "foreign")
+        self._connection = 0  # counts connections, so that a verdict meets its own
         self.port = ""
 
     # --- opening and closing --------------------------------------------------------------
@@ -250,6 +271,7 @@ class Fingertip(FrameSource):
             raise
         self.settings = Settings(info.rate_sps, info.decimation, info.gain, info.tare_offsets,
                                  info.streaming)
+        self._identity = _identity(info)
         return self
 
     def close(self) -> None:
@@ -286,6 +308,8 @@ class Fingertip(FrameSource):
         stream = self._open_stream(port)
         self._stream = stream
         self.port = port
+        self._connection += 1
+        self._held.clear()  # frames of an earlier connection never reach a later one
         self._decoder.reset()
         self.clock.reset()
         self._connected.set()
@@ -318,7 +342,7 @@ class Fingertip(FrameSource):
             bad_payload=d.bad_payload, seq_gaps=d.seq_gaps, frames_lost=d.frames_lost,
             overruns=c.overruns, reconnects=c.reconnects, device_resets=c.device_resets,
             callback_errors=c.callback_errors, command_retries=c.command_retries,
-            log_lines=c.log_lines)
+            log_lines=c.log_lines, foreign_devices=c.foreign_devices)
 
     @property
     def status(self) -> str:
@@ -531,6 +555,8 @@ class Fingertip(FrameSource):
 
     def _read_loop(self) -> None:
         while not self._closing.is_set():
+            if self._verdict is not None:
+                self._apply_verdict()
             stream = self._stream
             if stream is None:
                 self._reconnect()
@@ -570,6 +596,7 @@ class Fingertip(FrameSource):
                 self._closing.wait(0.05)
                 continue
             self._counters.reconnects += 1
+            self._verifying = self._identity is not None
             self._status = "connected"
             self._restore_needed.set()
             log.info("%s: reconnected on %s", self.name, self.port)
@@ -598,6 +625,14 @@ class Fingertip(FrameSource):
         d = self.clock.observe(msg.timestamp_us, arrival - transit)
         frame = Frame(msg.seq, d, self.clock.to_host(d), arrival, msg.values,
                       msg.timeout_mask, msg.saturation_mask)
+        if self._verifying:  # not handed out before the device is known to be ours
+            if len(self._held) == self._held.maxlen:
+                self._counters.overruns += 1
+            self._held.append(frame)
+            return
+        self._deliver(frame)
+
+    def _deliver(self, frame: Frame) -> None:
         with self._cond:
             if len(self._queue) == self._queue.maxlen:
                 self._counters.overruns += 1
@@ -656,9 +691,33 @@ class Fingertip(FrameSource):
                 self._closing.wait(0.1)
                 self._restore_needed.set()
 
+    def _apply_verdict(self) -> None:
+        """On the reader thread: release the held frames, or drop the foreign device."""
+        (connection, verdict), self._verdict = self._verdict, None
+        if connection != self._connection:
+            return  # about a connection that is gone
+        held = list(self._held)
+        self._held.clear()
+        if verdict == "foreign":
+            self._lost()
+            return
+        self._verifying = False
+        for f in held:
+            self._deliver(f)
+
     def _restore(self) -> None:
         want = self.settings
+        connection = self._connection
         info = self._handshake(self.open_timeout)
+        if self._identity is not None and _identity(info) != self._identity:
+            self._counters.foreign_devices += 1
+            self._verdict = (connection, "foreign")
+            raise FingertipError(
+                f"{self.name}: the device now on {self.port} is not the one opened (firmware "
+                f"{_describe(_identity(info))}, expected {_describe(self._identity)}); "
+                f"its frames are dropped and the port is left until the right one returns")
+        if self._verifying:
+            self._verdict = (connection, "ok")
         if (info.rate_sps, info.decimation) != (want.rate_sps, want.decimation):
             self._command(SetRate(0, want.rate_sps, want.decimation))
         if info.gain != want.gain:

@@ -1,0 +1,54 @@
+"""A reconnect by path must not hand out another device's frames: when something else
+answers on the port (here a 16-channel virtual fingertip taking the link of a 4-channel
+one), its frames are dropped and counted, and the right device is taken back when it
+returns."""
+from __future__ import annotations
+
+import time
+
+from fingertip import Fingertip
+from fingertip.sim import VirtualFirmware
+from fingertip.sim.pty_device import PtyDevice
+
+from .test_fingertip_pty import wait_for
+
+
+def test_a_foreign_device_on_the_path_is_refused(tmp_path):
+    link = tmp_path / "tty"
+    first = PtyDevice(VirtualFirmware(4), link=link).start()
+    ft = Fingertip(str(link)).open()
+    got = []
+    ft.add_callback(got.append)
+    try:
+        ft.start()
+        assert wait_for(lambda: len(got) >= 5, 5)
+        first.stop()  # unplugged; something else takes the path
+        with PtyDevice(VirtualFirmware(16), link=link) as other:
+            other.firmware.streaming = True  # it streams without being asked
+            assert wait_for(lambda: ft.stats.foreign_devices >= 1, 10)
+            n = len(got)
+            time.sleep(0.5)
+            assert all(len(f.counts) == 4 for f in got)  # not one 16-channel frame
+            assert len(got) == n, [(len(f.counts), f.seq, f.device_time_us) for f in got[n - 3:]]
+        back = PtyDevice(VirtualFirmware(4), link=link).start()  # the right one returns
+        try:
+            assert wait_for(lambda: len(got) >= n + 10, 10), ft.stats
+            assert all(len(f.counts) == 4 for f in got)
+            assert ft.status == "connected"
+        finally:
+            back.stop()
+    finally:
+        ft.close()
+        first.stop()
+
+
+def test_the_same_device_comes_back_with_its_frames(tmp_path):
+    link = tmp_path / "tty"
+    with PtyDevice(VirtualFirmware(4), link=link) as dev, Fingertip(str(link)) as ft:
+        ft.start()
+        assert ft.read(timeout=2) is not None
+        dev.replug(reboot=False)  # a glitch: the same device keeps streaming
+        assert wait_for(lambda: ft.stats.reconnects >= 1, 5)
+        ft.drain()
+        assert ft.read(timeout=3) is not None
+        assert ft.stats.foreign_devices == 0
