@@ -33,7 +33,7 @@ from .classify import (
     stratified_folds,
 )
 from .features import FeatureConfig
-from .reliability import apply_temperature, ece, fit_temperature
+from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
 
@@ -44,6 +44,8 @@ FIRST_S = 0.25
 STEP_S = 0.1
 THRESHOLDS = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.98, 0.99, 0.995, 0.999)
 TARGET_ACCURACY = 0.95
+UNKNOWN_KEEP = 0.95
+"""Share of known recordings (out of fold) whose answer must stay a class, not unknown."""
 LASTED_TOL_S = 0.05
 """A recording whose last window ends this close to a decision time counts as lasting
 that long (frames cannot reach the very last samples: a 1 s recording's last frame ends
@@ -141,16 +143,27 @@ class Candidate:
     about: str
     pipe: FeaturePipeline
     train: Callable[[np.ndarray, np.ndarray, np.ndarray, list[str], int], Fitted]
+    last: Fitted | None = None
+    """The model of the last cross-validation fold (for costs)."""
+    last_fit_s: float = 0.0
 
 
-def _train_linear(x, y, g, classes, seed) -> Fitted:
-    from .cnn import blas_threads
-    from .linear import to_onnx, train_logistic
+def _linear_trainer():
+    """Logistic regression whose L2 penalty is chosen (inner split) at the first fit and
+    kept for the next ones (the other folds and the final model): choosing costs four fits."""
+    state: dict[str, float | None] = {"l2": None}
 
-    with blas_threads(1):  # L-BFGS's small products: threads only contend on 2 cores
-        m = train_logistic(x, y, classes=classes, groups=g, seed=seed)
-    return Fitted(m.forward, m.n_params,
-                  lambda path, t, meta: to_onnx(m, path, temperature=t, metadata=meta), m)
+    def train(x, y, g, classes, seed) -> Fitted:
+        from .cnn import blas_threads
+        from .linear import to_onnx, train_logistic
+
+        with blas_threads(1):  # L-BFGS's small products: threads only contend on 2 cores
+            m = train_logistic(x, y, classes=classes, groups=g, seed=seed, l2=state["l2"])
+        state["l2"] = m.l2
+        return Fitted(m.forward, m.n_params,
+                      lambda path, t, meta: to_onnx(m, path, temperature=t, metadata=meta),
+                      m)
+    return train
 
 
 def _mlp_trainer(hidden: tuple[int, ...], epochs: int):
@@ -183,12 +196,12 @@ def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
             out.append(Candidate(name, f"log spectrum ({n} linear bins of {df:.3g} Hz), "
                                        "mean and deviation over time, logistic regression",
                                  FeaturePipeline(c, setup.spec(("mean", "std"))),
-                                 _train_linear))
+                                 _linear_trainer()))
         elif name == "linear":
             out.append(Candidate(name, f"{cfg.n_bands} log bands, mean and deviation over "
                                        "time, logistic regression",
                                  FeaturePipeline(cfg, setup.spec(("mean", "std"))),
-                                 _train_linear))
+                                 _linear_trainer()))
         elif name == "mlp":
             out.append(Candidate(name, f"{cfg.n_bands} log bands, mean, deviation and "
                                        f"frame-to-frame change, MLP {list(hidden)}",
@@ -209,6 +222,8 @@ class Answers:
     run: np.ndarray
     t_end: np.ndarray
     fold: int = -1
+    dist: np.ndarray | None = None
+    """Novelty distance of each window (:class:`~fingertip.models.reliability.Novelty`)."""
 
 
 @dataclass
@@ -229,22 +244,40 @@ def candidate_windows(cand: Candidate, ds: Dataset) -> CandidateWindows:
     return CandidateWindows(tr, te, time.perf_counter() - t0)
 
 
-def fit_on(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
-           classes: list[str], seed: int) -> Fitted:
+def training_rows(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(inputs, labels, recording) of the training windows of recordings ``idx``."""
     rows = [i for i in idx if len(cw.train[i])]
     if not rows:
         raise DatasetError("no training windows (recordings too short?)")
     x = np.concatenate([cw.train[i].inputs for i in rows])
     y = np.concatenate([np.full(len(cw.train[i]), labels[i]) for i in rows])
     g = np.concatenate([np.full(len(cw.train[i]), i) for i in rows])
-    if len(np.unique(y)) < len(classes):
+    if len(np.unique(y)) < k:
         raise DatasetError("some class has no training window (recordings too short?)")
+    return x, y, g
+
+
+def fit_on(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
+           classes: list[str], seed: int) -> Fitted:
+    x, y, g = training_rows(cw, labels, idx, len(classes))
     return cand.train(x, y, g, classes, seed)
 
 
-def answers_of(fitted: Fitted, w: Windows, fold: int = -1) -> Answers:
+def novelty_on(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
+               ) -> Novelty:
+    """The novelty model of the training windows of ``idx`` (each recording weighs the
+    same)."""
+    x, y, g = training_rows(cw, labels, idx, k)
+    _, inv, counts = np.unique(g, return_inverse=True, return_counts=True)
+    return Novelty.fit(x, y, k, 1.0 / counts[inv])
+
+
+def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
+               novelty: Novelty | None = None) -> Answers:
     p = fitted.forward(w.inputs)
-    return Answers(p, running(p, w.growing), w.t_end, fold)
+    return Answers(p, running(p, w.growing), w.t_end, fold,
+                   None if novelty is None else novelty.distance(w.inputs))
 
 
 def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
@@ -255,10 +288,14 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
     pool = np.concatenate(folds)
     out: dict[int, Answers] = {}
     for f, te in enumerate(folds):
-        m = fit_on(cand, cw, labels, np.setdiff1d(pool, te), classes, seed)
+        tr = np.setdiff1d(pool, te)
+        t0 = time.perf_counter()
+        m = fit_on(cand, cw, labels, tr, classes, seed)
+        cand.last, cand.last_fit_s = m, time.perf_counter() - t0
+        nov = novelty_on(cw, labels, tr, len(classes))
         for i in te:
             if len(cw.test[i]):
-                out[int(i)] = answers_of(m, cw.test[i], f)
+                out[int(i)] = answers_of(m, cw.test[i], f, nov)
     return out
 
 
@@ -294,7 +331,7 @@ def calibrated(ans: dict[int, Answers], temps: Sequence[float]) -> dict[int, Ans
     for i, a in ans.items():
         t = temps[a.fold] if 0 <= a.fold < len(temps) else 1.0
         out[i] = Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t),
-                         a.t_end, a.fold)
+                         a.t_end, a.fold, a.dist)
     return out
 
 
@@ -368,10 +405,11 @@ def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: 
                   k: int = 5, seed: int = 0) -> dict:
     """Leave class ``left_out`` out of training: a ``k``-fold cross-validation on the other
     classes, whose fold models also answer every recording of ``left_out``. Returns the ROC
-    AUC of the unknown score (1 - top calibrated probability, whole recording) of the
-    left-out recordings (answered by every fold model: k answers each) against the known
-    ones (out of fold), and the share of each
-    answered "unknown" at the trainer's rule (the level 95 % of known recordings reach)."""
+    AUC of the novelty distance (:class:`~fingertip.models.reliability.Novelty`, the last
+    window) of the left-out recordings (answered by every fold model: k answers each)
+    against the known ones (out of fold), the same for the softmax's own score (1 - top
+    calibrated probability), and the share of each answered "unknown" at the trainer's
+    rule (above the distance 95 % of known recordings stay below)."""
     from .reliability import auroc, unknown_score
 
     c_out = ds.classes.index(left_out)
@@ -382,21 +420,32 @@ def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: 
     labels = np.where(labels_all > c_out, labels_all - 1, labels_all)
     folds = [known[f] for f in stratified_folds(labels[known], k, seed)]
     ans: dict[int, Answers] = {}
-    foreign: list[tuple[int, np.ndarray]] = []
+    foreign: list[Answers] = []
     for f, te in enumerate(folds):
-        m = fit_on(cand, cw, labels, np.setdiff1d(known, te), classes, seed)
+        tr = np.setdiff1d(known, te)
+        m = fit_on(cand, cw, labels, tr, classes, seed)
+        nov = novelty_on(cw, labels, tr, len(classes))
         for i in te:
             if len(cw.test[i]):
-                ans[int(i)] = answers_of(m, cw.test[i], f)
-        foreign += [(f, answers_of(m, cw.test[i], f).run[-1]) for i in gone
-                    if len(cw.test[i])]
+                ans[int(i)] = answers_of(m, cw.test[i], f, nov)
+        foreign += [answers_of(m, cw.test[i], f, nov) for i in gone if len(cw.test[i])]
     temps = fold_temperatures(ans, labels, len(folds))
-    cal = calibrated(ans, temps)
-    known_scores = unknown_score(np.array([a.run[-1] for a in cal.values()]))
-    out_scores = unknown_score(np.array([apply_temperature(r, temps[f]) for f, r in foreign]))
-    level = float(np.quantile(known_scores, 0.95))
-    return {"left_out": left_out, "auroc": auroc(out_scores, known_scores),
-            "known_recordings": len(known_scores), "left_out_answers": len(out_scores),
-            "left_out_answered_unknown": float(np.mean(out_scores > level)),
-            "known_answered_unknown": float(np.mean(known_scores > level))}
+    known_d = np.array([a.dist[-1] for a in ans.values()])
+    out_d = np.array([a.dist[-1] for a in foreign])
+    known_p = unknown_score(np.array([a.run[-1] for a in calibrated(ans, temps).values()]))
+    out_p = unknown_score(np.array([apply_temperature(a.run[-1], temps[a.fold])
+                                    for a in foreign]))
+    level = float(np.quantile(known_d, UNKNOWN_KEEP))
+    return {"left_out": left_out, "auroc": auroc(out_d, known_d),
+            "auroc_softmax": auroc(out_p, known_p),
+            "known_recordings": len(known_d), "left_out_answers": len(out_d),
+            "left_out_answered_unknown": float(np.mean(out_d > level)),
+            "known_answered_unknown": float(np.mean(known_d > level))}
+
+
+def novelty_threshold(ans: dict[int, Answers]) -> float:
+    """The novelty distance that :data:`UNKNOWN_KEEP` of the known recordings' final
+    answers (out of fold) stay below."""
+    d = [a.dist[-1] for a in ans.values() if a.dist is not None and len(a.dist)]
+    return float(np.quantile(d, UNKNOWN_KEEP)) if d else math.inf
 

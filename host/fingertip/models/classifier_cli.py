@@ -139,8 +139,8 @@ def _print_material_report(rep: dict) -> None:
               f"{ttd['threshold']:g}, median {ttd['median_s']:.3f} s to decide")
     cal = rep["calibration"]
     print(f"calibration: temperature {cal['temperature']:.2f}, ECE {cal['ece']:.3f} "
-          f"(uncalibrated {cal['ece_uncalibrated']:.3f}); unknown below "
-          f"{rep['unknown']['below_probability']:.2f}")
+          f"(uncalibrated {cal['ece_uncalibrated']:.3f}); unknown beyond distance "
+          f"{rep['unknown']['novelty_threshold']:.2f}")
 
 
 @reports_bad_files
@@ -262,14 +262,14 @@ def _cmd_classify(args: argparse.Namespace) -> int:
                 src.stop()
                 if forces is not None:
                     ft.close()
-            result = Classification(preds, clf.classes, clf.unknown_below)
+            result = Classification(preds, clf.classes, clf.novelty_threshold)
     except _user_errors() as e:
         if forces is not None:
             ft.close()
         log.error("%s", e)
         return 2
     if args.decide_at is not None:
-        return _print_decision(Classification(preds, clf.classes, clf.unknown_below),
+        return _print_decision(Classification(preds, clf.classes, clf.novelty_threshold),
                                args.decide_at, args.json)
     vote = result.vote
     shares = result.shares()

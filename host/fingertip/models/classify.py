@@ -486,6 +486,9 @@ class Prediction:
     host_time: float | None = None
     running: dict[str, float] | None = None
     """The running class probabilities after this window (everything heard so far)."""
+    novelty: float | None = None
+    """How far this window lies from every trained class (squared Mahalanobis distance per
+    dimension; :class:`~fingertip.models.reliability.Novelty`)."""
 
     def to_dict(self) -> dict:
         d = {"t_start": round(self.t_start, 4), "t_end": round(self.t_end, 4),
@@ -497,6 +500,8 @@ class Prediction:
             d["host_time"] = round(self.host_time, 6)
         if self.running is not None:
             d["running"] = {k: round(v, 4) for k, v in self.running.items()}
+        if self.novelty is not None:
+            d["novelty"] = round(self.novelty, 4)
         return d
 
 
@@ -506,8 +511,12 @@ class Classification:
 
     predictions: list[Prediction]
     classes: list[str]
-    unknown_below: float = 0.0
-    """An answer whose top running probability is below this is "unknown"."""
+    novelty_threshold: float = math.inf
+    """An answer whose window lies farther than this from every class is "unknown"."""
+
+    def _unknown(self, i: int) -> bool:
+        d = self.predictions[i].novelty
+        return d is not None and d > self.novelty_threshold
 
     def running(self) -> np.ndarray:
         """(predictions, classes) running probabilities (the window's own when the model
@@ -527,21 +536,23 @@ class Classification:
             return None
         if self.anytime:
             last = self.running()[-1]
-            k = int(np.argmax(last))
-            return "unknown" if last[k] < self.unknown_below else self.classes[k]
+            return "unknown" if self._unknown(-1) else self.classes[int(np.argmax(last))]
         p = np.array([[q.probabilities[c] for c in self.classes] for q in self.predictions])
         return self.classes[majority_vote(p)]
 
     def decide(self, threshold: float):
         """The first moment a class's running probability reached ``threshold``
-        (:class:`~fingertip.models.anytime.Decision`); undecided: the last answer, or
-        "unknown" when it is below the model's unknown level."""
+        (:class:`~fingertip.models.anytime.Decision`); undecided: the last answer. The label
+        is "unknown" when that window lies farther from every class than the model's
+        threshold."""
         from .anytime import decide
 
         t_end = np.array([q.t_end for q in self.predictions])
         d = decide(self.running(), t_end, self.classes, threshold)
-        if not d.decided and d.label is not None and d.probability < self.unknown_below:
-            d.label = "unknown"
+        if d.label is not None:
+            i = int(np.flatnonzero(np.isclose(t_end, d.t))[0])
+            if self._unknown(i):
+                d.label = "unknown"
         return d
 
     def shares(self) -> dict[str, float]:
@@ -577,8 +588,12 @@ class VibrationClassifier:
             self.spec = WindowSpec(int(w["frames"]), float(w["step_s"]), meta["input"],
                                    w.get("min_frames"), tuple(w.get("stats", STATS)))
             self.classes: list[str] = [str(c) for c in json.loads(meta["classes"])]
-            self.unknown_below = float(json.loads(meta.get("unknown_below", "0")))
             self.temperature = float(json.loads(meta.get("temperature", "1")))
+            self.novelty = None
+            if "novelty" in meta:
+                from .reliability import Novelty
+
+                self.novelty = Novelty.from_dict(json.loads(meta["novelty"]))
         except (KeyError, TypeError, ValueError, AttributeError) as e:
             raise ModelError(f"{path}: its classifier metadata is incomplete or damaged "
                              f"({type(e).__name__}: {e})", path) from e
@@ -603,6 +618,10 @@ class VibrationClassifier:
                              f"{len(self.classes)} classes", path)
 
     @property
+    def novelty_threshold(self) -> float:
+        return math.inf if self.novelty is None else self.novelty.threshold
+
+    @property
     def architecture(self) -> str:
         return self.meta.get("model", "mlp")
 
@@ -616,6 +635,7 @@ class VibrationClassifier:
                      host: Sequence[float] | None = None,
                      run: np.ndarray | None = None) -> list[Prediction]:
         out = []
+        dist = None if self.novelty is None else self.novelty.distance(w.inputs)
         for i in range(len(w)):
             p = probs[i]
             k = int(np.argmax(p))
@@ -625,7 +645,8 @@ class VibrationClassifier:
                                   float(w.level_db[i]), bool(w.clipped[i] > CLIP_FLAG),
                                   None if host is None else float(host[i]),
                                   None if run is None else
-                                  dict(zip(self.classes, map(float, run[i]), strict=True))))
+                                  dict(zip(self.classes, map(float, run[i]), strict=True)),
+                                  None if dist is None else float(dist[i])))
         return out
 
     def classify(self, rec: Recording | str | os.PathLike, rate: float | None = None
@@ -645,7 +666,7 @@ class VibrationClassifier:
 
             run = running(probs, w.growing)
         return Classification(self._predictions(w, probs, run=run), self.classes,
-                              self.unknown_below)
+                              self.novelty_threshold)
 
     def live(self, sample_rate: float, what: str = "the audio source"
              ) -> _LiveWindows | _LiveGrowing:

@@ -13,8 +13,9 @@ most). A hand must decide during a slide, on sensors and materials we never saw,
   log bands, an MLP) are compared by cross-validation by recording, on their accuracy at
   decision times 0.25, 0.5, 1, 2 s and the whole recording, and the best (the cheapest when
   they tie) is exported to ONNX;
-- its probabilities are temperature-scaled on out-of-fold answers, and a recording whose top
-  probability is below what 95 % of the known recordings reach is answered "unknown";
+- its probabilities are temperature-scaled on out-of-fold answers, and a recording farther
+  from every trained class than 95 % of the known recordings (Mahalanobis distance,
+  :class:`~fingertip.models.reliability.Novelty`) is answered "unknown";
 - the report (``report.json``) gives each candidate's accuracy by decision time and its
   cost, the accuracy against time to decision (``decision.png``), the expected calibration
   error (``reliability.png``) and the confusion matrix (``confusion.png``).
@@ -49,7 +50,10 @@ from .candidates import (
     ece_of,
     fit_on,
     fold_temperatures,
+    UNKNOWN_KEEP,
     mean_accuracy,
+    novelty_on,
+    novelty_threshold,
     time_to_decision,
 )
 from .classify import (
@@ -78,8 +82,6 @@ REPORT_FILE = "report.json"
 CONFUSION_FILE = "confusion.png"
 DECISION_FILE = "decision.png"
 RELIABILITY_FILE = "reliability.png"
-UNKNOWN_KEEP = 0.95
-"""Share of known recordings (out of fold) whose answer must stay a class, not unknown."""
 TIE = 0.005
 """Candidates within this mean accuracy of the best are tied: the cheapest wins."""
 
@@ -157,11 +159,14 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     cal = calibrated(ans, temps) if ans else {}
     t0 = time.perf_counter()
     fitted = fit_on(cand, cws[chosen], labels, train_idx, ds.classes, seed)
+    novelty = novelty_on(cws[chosen], labels, train_idx, len(ds.classes))
+    novelty.threshold = novelty_threshold(ans)
     t_train = time.perf_counter() - t0
     if folds > 1:
         evaluated = cal
     else:
-        evaluated = {int(i): _cooled(answers_of(fitted, cws[chosen].test[i]), t_final)
+        evaluated = {int(i): _cooled(answers_of(fitted, cws[chosen].test[i], -1, novelty),
+                                     t_final)
                      for i in test_idx if len(cws[chosen].test[i])}
     evaluation = _evaluation(evaluated, cws[chosen], labels, ds.classes)
     table = accuracy_by_time(evaluated, labels)
@@ -173,7 +178,8 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                                  labels)
     from .reliability import ece as ece_fn
 
-    unknown_min = _unknown_min_probability(cal or evaluated, labels)
+    unknown_share = float(np.mean([a.dist[-1] > novelty.threshold
+                                   for a in evaluated.values()])) if evaluated else 0.0
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = {"model": chosen, "accuracy": evaluation.windows.accuracy,
@@ -182,11 +188,12 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                "time_to_decision": ttd, "ece": ece_val,
                "test_windows": evaluation.windows.n,
                "test_recordings": evaluation.recordings.n, "folds": folds,
-               "temperature": t_final, "unknown_below_probability": unknown_min}
+               "temperature": t_final, "novelty_threshold": novelty.threshold,
+               "test_answered_unknown": unknown_share}
     meta = model_metadata(kind, setup.cfg if chosen != "baseline" else cand.pipe.cfg,
                           cand.pipe.spec, ds.classes, model=chosen, evaluation=summary,
                           trained_rates_hz=ds.rates, temperature=t_final,
-                          unknown_below=unknown_min)
+                          novelty=novelty.to_dict())
     name = f"{kind}.onnx" if kind != "material" else MODEL_FILE
     model_path = fitted.export(out / name, t_final, meta)
     costs = _costs(cands, cws, labels, sel_folds or [test_idx], train_idx, ds, seed,
@@ -218,9 +225,11 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                                   "training folds", "fold_temperatures": temps,
                         "temperature": t_final, "ece": ece_val,
                         "ece_uncalibrated": ece_fn(conf_raw, ok_raw)},
-        "unknown": {"below_probability": unknown_min,
-                    "rule": f"answer unknown when the top probability is below the level "
-                            f"{100 * UNKNOWN_KEEP:g} % of the known recordings reached "
+        "unknown": {"novelty_threshold": novelty.threshold,
+                    "test_answered_unknown": unknown_share,
+                    "rule": "answer unknown when the input's distance to the nearest trained "
+                            "class (Mahalanobis, each class's own covariance) exceeds "
+                            f"what {100 * UNKNOWN_KEEP:g} % of the known recordings reached "
                             "(out of fold, whole recording)"},
         "onnx_max_abs_diff_vs_float64": onnx_diff,
         "timing": {"features_s": round(sum(r["features_s"] for r in results.values()), 3),
@@ -253,7 +262,8 @@ def _pooled(ans: dict[int, Answers], labels: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _cooled(a: Answers, t: float) -> Answers:
-    return Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t), a.t_end, a.fold)
+    return Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t), a.t_end, a.fold,
+                   a.dist)
 
 
 def _choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
@@ -269,13 +279,6 @@ def _choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]
     return name, (f"{name}: mean accuracy over the decision times {100 * scored[name]:.2f} "
                   f"% (best {100 * best:.2f} %; candidates within {100 * TIE:g} points of "
                   f"the best are tied and the cheapest of them wins)")
-
-
-def _unknown_min_probability(ans: dict[int, Answers], labels: np.ndarray) -> float:
-    if not ans:
-        return 0.0
-    top = np.array([a.run[-1].max() for a in ans.values()])
-    return float(np.quantile(top, 1 - UNKNOWN_KEEP))
 
 
 def _evaluation(ans: dict[int, Answers], cw, labels: np.ndarray, classes: list[str]
@@ -294,33 +297,35 @@ def _evaluation(ans: dict[int, Answers], cw, labels: np.ndarray, classes: list[s
 
 
 def _costs(cands, cws, labels, folds, train_idx, ds, seed, model_path, chosen) -> dict:
-    """Per candidate: parameters, training time on one fold's recordings, onnxruntime
-    latency of one answer, and features + model for 1 s of 44.1 kHz audio."""
+    """Per candidate: parameters, training time of its last cross-validation fold,
+    onnxruntime latency of one answer, and features + model for 1 s of 44.1 kHz audio."""
     from .classify import VibrationClassifier
 
     out = {}
-    fold = folds[0] if len(folds) else np.zeros(0, np.intp)
-    idx = np.setdiff1d(train_idx, fold) if len(fold) else train_idx
+    idx = np.setdiff1d(train_idx, folds[0]) if len(folds) and len(folds[0]) else train_idx
+    rate = max(44100.0, max(ds.rates))
+    probe = as_recording(np.random.default_rng(0).normal(0, 0.05, int(rate)), rate,
+                         "latency probe", full_scale=1.0)
     with tempfile.TemporaryDirectory() as tmp:
         for cand in cands:
-            t0 = time.perf_counter()
-            m: Fitted = fit_on(cand, cws[cand.name], labels, idx, ds.classes, seed)
-            t_fit = time.perf_counter() - t0
+            m: Fitted | None = cand.last
+            t_fit = cand.last_fit_s
+            if m is None:  # no cross-validation ran: fit once to measure
+                t0 = time.perf_counter()
+                m = fit_on(cand, cws[cand.name], labels, idx, ds.classes, seed)
+                t_fit = time.perf_counter() - t0
             meta = model_metadata("material", cand.pipe.cfg, cand.pipe.spec, ds.classes,
                                   model=cand.name)
             path = model_path if cand.name == chosen else m.export(
                 Path(tmp) / f"{cand.name}.onnx", 1.0, meta)
             clf = VibrationClassifier(path)
-            rate = max(44100.0, max(ds.rates))
-            probe = as_recording(np.random.default_rng(0).normal(0, 0.05, int(rate)), rate,
-                                 "latency probe", full_scale=1.0)
             one = clf.pipeline.windows(probe).inputs[-1:]
             out[cand.name] = {"parameters": m.n_params,
                               "train_s_one_fold": round(t_fit, 3),
                               "latency_model_ms": latency_ms(
-                                  lambda c=clf, x=one: c.predict(x)),
+                                  lambda c=clf, x=one: c.predict(x), repeats=100),
                               "latency_1s_audio_44k1_ms": latency_ms(
-                                  lambda c=clf, r=probe: c.classify(r), repeats=20, warmup=2)}
+                                  lambda c=clf: c.classify(probe), repeats=10, warmup=2)}
     return out
 
 

