@@ -144,3 +144,8 @@ def tables(r: dict[str, float]) -> dict[str, str]:
     rows.append(f"| (all sources) | {allp:.4f} | |")
     rows.append(f"| (ideal sensor) | {none:.4f} | |")
     return {"Realistic simulator: error budget of the paper's force method": "\n".join(rows)}
+
+
+if __name__ == "__main__":  # each source alone, for docs/simulation.md (not run by the bench)
+    for key, value in ablation_only().items():
+        print(f"{key} = {value}")
