@@ -49,11 +49,11 @@ def _user_errors():
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
-def _print_evaluation(ev, indent: str = "  ") -> None:
+def _print_evaluation(ev, indent: str = "  ", how: str = "majority vote") -> None:
     w = ev.windows
     print(f"{indent}accuracy: {100 * w.accuracy:.2f} % of {w.n} test windows; "
           f"{100 * ev.recordings.accuracy:.1f} % of {ev.recordings.n} test recordings "
-          f"(majority vote)")
+          f"({how})")
     rec, prec = w.recall, w.precision
     width = max(len(c) for c in w.classes)
     print(f"{indent}{'class':<{width}}  recall  precision  windows")
@@ -110,7 +110,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
           f"{r.report['features']['f_lo']:g}-{r.report['features']['f_hi']:g} Hz")
     print(_split_line(r.report["split"]))
     _print_material_report(r.report)
-    _print_evaluation(r.evaluation)
+    _print_evaluation(r.evaluation, how="answer after the whole recording")
     print("wrote " + ", ".join(str(p) for p in r.files))
     return 0
 
