@@ -21,7 +21,7 @@ sys.path.insert(0, str(ROOT))
 from tests.bench.machine import describe  # noqa: E402
 
 BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
-           "tasks"]
+           "tasks", "hand"]
 JSON_OUT = ROOT / "docs" / "benchmarks.json"
 MD_OUT = ROOT / "docs" / "benchmarks.md"
 
