@@ -43,8 +43,11 @@ PITCH = 14.6
 VBR = "VBR"
 # Routing: nets routed before the rest, the supply trees' order, and whether each HX711 has
 # its own DVDD capacitor (found by trying: the router is greedy, the order decides)
-FIRST = ["DOUT4", "DOUT13"]
-SUPPLIES = ["VIN_RAW", "VIN_F", "PFET_G", VBR, "+5V", "GND"]
+FIRST = [VBR, "DOUT4", "DOUT13", "+5V"]
+SUPPLIES = ["VIN_RAW", "VIN_F", "PFET_G", "GND"]
+# GND stitching vias every 2 mm (4 on the readout): the denser rows leave pour fragments
+# that only a nearby via joins to the other side
+STITCH_PITCH = 2.0
 DVDD_CAPS = False
 
 
@@ -195,7 +198,8 @@ def build(out: Path) -> list[str]:
               for row, f in enumerate(ROW_FINGER)]
     jacks = [preamp_ref(f, "J3") for f in range(FINGERS)]
     return generate_shield(out, NAME, build_schematic(), base, (BW, BH), placements(),
-                           CHANNELS, jacks, texts, descr="hand")
+                           CHANNELS, jacks, texts, descr="hand", stitch_pitch=STITCH_PITCH,
+                           join=True)
 
 
 def main() -> int:

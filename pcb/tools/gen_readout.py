@@ -352,7 +352,8 @@ def build(out: Path) -> list[str]:
 
 def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
                     size: tuple[float, float], pl: dict, channels: int, jacks: list[str],
-                    texts: list[tuple[str, float, float]], descr: str = "readout") -> list[str]:
+                    texts: list[tuple[str, float, float]], descr: str = "readout",
+                    stitch_pitch: float = 4.0, join: bool = False) -> list[str]:
     """Write a shield project: footprints, schematic, routed board; returns what failed.
     base: routing order of the nets (the rest after them, sorted)."""
     out.mkdir(parents=True, exist_ok=True)
@@ -370,17 +371,18 @@ def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
     order = [full[b] for b in base if b in full]
     missing = sorted(set(full) - set(base))
     order += [full[m] for m in missing]
-    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts)
+    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts,
+                          stitch_pitch, join)
     finish_project(out / f"{name}.kicad_pro", uid(name, "root"))
     (out / f"{name}.kicad_prl").unlink(missing_ok=True)
     return failed
 
 
 def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl, channels,
-                 jacks, texts) -> list[str]:
+                 jacks, texts, stitch_pitch: float = 4.0, join: bool = False) -> list[str]:
     """Place, route (GND as planes), stitch, pour and save; Uno outline at (BX, BY)."""
     import pcbnew
-    from board import BoardBuilder, Rules, polygon_inside, stitch
+    from board import BoardBuilder, Rules, join_fragments, polygon_inside, stitch
 
     pcbnew.KIID.SeedGenerator(1)   # same item UUIDs every run: byte-identical output
     rules = Rules(track=0.2, clearance=0.15, via=0.6, drill=0.3, edge=0.3, hole_clearance=0.25,
@@ -408,13 +410,16 @@ def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl
     gnd = next(n for n in bb.nets if n.lstrip("/") == "GND")
     failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + w + 0.5, BY + h + 0.5),
                           plane_nets=(gnd,))
-    stitch(bb, gnd)
+    stitch(bb, gnd, stitch_pitch)
     inset = [(BX + 0.4, BY + 0.4), (BX + w - 0.4, BY + 0.4), (BX + w - 0.4, BY + h - 0.4),
              (BX + 0.4, BY + h - 0.4)]
     bb.zone(gnd, pcbnew.B_Cu, inset)
     bb.zone(gnd, pcbnew.F_Cu, inset)
     for txt, x, y in texts:
         bb.text(txt, x, y, size=0.8)
+    if join:
+        pcbnew.ZONE_FILLER(bb.board).Fill(bb.board.Zones())
+        join_fragments(bb.board, gnd, rules)
     unconnected = bb.save()
     if unconnected:
         failed.append(f"{unconnected} unconnected item(s) after the zone fill")
