@@ -5,7 +5,7 @@
 #   make pcb         pcb-check, then Gerbers, drill + map, BOM CSV, PDF schematic, STEP
 #                    into build/pcb/<board>/
 
-PCB_BOARDS := fingertip readout
+PCB_BOARDS := fingertip readout hand
 PCB_OUT := build/pcb
 SYS_PY := /usr/bin/python3
 
@@ -17,6 +17,7 @@ pcb-tools:
 pcb-gen: pcb-tools
 	$(SYS_PY) pcb/tools/gen_fingertip.py
 	$(SYS_PY) pcb/tools/gen_readout.py
+	$(SYS_PY) pcb/tools/gen_hand.py
 
 pcb-check: pcb-tools
 	@set -e; for b in $(PCB_BOARDS); do \

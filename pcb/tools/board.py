@@ -286,6 +286,20 @@ class BoardBuilder:
         r = math.hypot(sx, sy) / 2
         return f, (cx - r, cy - r, cx + r, cy + r)
 
+    def _oval(self, pad):
+        """Distance function of an oval pad (a stadium), or None for other shapes."""
+        if pad.GetShape(pcbnew.F_Cu) != pcbnew.PAD_SHAPE_OVAL:
+            return None
+        pos = pad.GetPosition()
+        cx, cy = mm(pos.x), mm(pos.y)
+        size = pad.GetSize(pcbnew.F_Cu)
+        sx, sy = mm(size.x), mm(size.y)
+        a = math.radians(-pad.GetOrientation().AsDegrees())
+        half = abs(sx - sy) / 2
+        ux, uy = (math.cos(a), math.sin(a)) if sx >= sy else (-math.sin(a), math.cos(a))
+        return seg_dist(cx - ux * half, cy - uy * half, cx + ux * half, cy + uy * half,
+                        min(sx, sy) / 2)
+
     def route_all(self, order: list[str], inside, bbox, log=print, vias=None,
                   plane_nets=()) -> list[str]:
         """Route the nets in order. vias: {net: [(x, y)]} stitching vias to add and connect.
@@ -325,7 +339,9 @@ class BoardBuilder:
                 sl = rt._win(*bb, r.via / 2 + r.clearance)
                 rt.novia[sl] |= f(rt.X[sl], rt.Y[sl]) < r.via / 2 + r.clearance
                 if netc > 0:
-                    cells = rt.pad_cells(f, bb)
+                    # a route must end on copper: inside an oval pad, not in the corners of
+                    # its bounding rectangle (the obstacle stays the rectangle)
+                    cells = rt.pad_cells(self._oval(pad) or f, bb)
                     pads_of.setdefault(netc, []).append(
                         (pad, [(L, int(j), int(i)) for L in layers for j, i in cells]))
         failed = []
@@ -527,3 +543,134 @@ def stitch(bb: BoardBuilder, net: str, pitch: float = 4.0) -> int:
                 bb.board.Add(v)
                 n += 1
     return n
+
+
+
+def join_fragments(board, net: str, rules: Rules, step: float = 0.25) -> int:
+    """After a fill: group the pour fragments of ``net`` on both layers into connected sets
+    (a via or through-hole pad joins the fragments it sits in on both layers, a track joins
+    the fragments of its two ends) and add a via wherever one fits in a fragment of a
+    smaller set over a fragment of the largest set, until one set is left. Refills; returns
+    the vias added."""
+    netc = board.FindNet(net).GetNetCode()
+    zones = {z.GetLayer(): z for z in board.Zones() if z.GetNetCode() == netc}
+    layers = (pcbnew.F_Cu, pcbnew.B_Cu)
+    added = 0
+    for _ in range(20):
+        frags = {L: zones[L].GetFilledPolysList(L) for L in layers}
+        sets = _fragment_sets(board, netc, frags)
+        if len(sets) <= 1:
+            break
+        area = {root: sum(abs(frags[L].Outline(i).Area()) for L, i in ks)
+                for root, ks in sets.items()}
+        main = max(area, key=area.get)
+        if not _via_into(board, netc, frags, [k for r, ks in sets.items() if r != main
+                                              for k in ks], set(sets[main]), rules, step):
+            break
+        added += 1
+        pcbnew.ZONE_FILLER(board).Fill(board.Zones())
+    return added
+
+
+def _fragment_sets(board, netc: int, frags: dict) -> dict:
+    """Pour fragments ((layer, index)) grouped by what connects them: root -> members."""
+    layers = (pcbnew.F_Cu, pcbnew.B_Cu)
+    parent: dict = {}
+
+    def find(k):
+        parent.setdefault(k, k)
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    def where(L, pt):
+        ps = frags[L]
+        return [(L, i) for i in range(ps.OutlineCount()) if ps.Outline(i).PointInside(pt)]
+
+    def union(items):
+        items = [find(k) for k in items]
+        for k in items[1:]:
+            parent[k] = items[0]
+    for L in layers:
+        for i in range(frags[L].OutlineCount()):
+            find((L, i))
+    for t in board.GetTracks():
+        if t.GetNetCode() != netc:
+            continue
+        if t.GetClass() == "PCB_VIA":
+            union(where(pcbnew.F_Cu, t.GetPosition()) + where(pcbnew.B_Cu, t.GetPosition()))
+        else:
+            union(where(t.GetLayer(), t.GetStart()) + where(t.GetLayer(), t.GetEnd()))
+    for fp in board.GetFootprints():
+        for pad in fp.Pads():
+            if pad.GetNetCode() == netc:
+                union([k for L in layers if pad.IsOnLayer(L) for k in where(L, pad.GetPosition())])
+    sets: dict = {}
+    for k in list(parent):
+        sets.setdefault(find(k), []).append(k)
+    return sets
+
+
+def _via_into(board, netc, frags, small, main, rules: Rules, step: float) -> bool:
+    """One via in a fragment of ``small`` over a fragment of ``main`` (other layer)."""
+    keep = rules.via / 2 + rules.clearance + 0.05
+    others = []
+    for t in board.GetTracks():
+        if t.GetNetCode() == netc and t.GetClass() != "PCB_VIA":
+            continue
+        if t.GetClass() == "PCB_VIA":
+            others.append(("c", mm(t.GetPosition().x), mm(t.GetPosition().y), rules.via / 2))
+        else:
+            others.append(("s", mm(t.GetStart().x), mm(t.GetStart().y), mm(t.GetEnd().x),
+                           mm(t.GetEnd().y), mm(t.GetWidth()) / 2))
+    pads = []
+    for fp in board.GetFootprints():
+        for pad in fp.Pads():
+            bb = pad.GetBoundingBox()
+            pads.append((mm(bb.GetX()), mm(bb.GetY()), mm(bb.GetRight()), mm(bb.GetBottom()),
+                         pad.GetNetCode() == netc and pad.GetAttribute() !=
+                         pcbnew.PAD_ATTRIB_NPTH, pad.HasHole()))
+
+    def free(x, y) -> bool:
+        for x0, y0, x1, y1, same, hole in pads:
+            m = keep + (0.1 if hole else 0.0)
+            if x0 - m < x < x1 + m and y0 - m < y < y1 + m and not (same and not hole):
+                return False
+        for o in others:
+            if o[0] == "c":
+                if math.hypot(x - o[1], y - o[2]) < keep + o[3] + 0.1:
+                    return False
+            elif float(seg_dist(o[1], o[2], o[3], o[4], o[5])(np.array(x), np.array(y))) < keep:
+                return False
+        return True
+    for L, i in small:
+        o = frags[L].Outline(i)
+        other = pcbnew.B_Cu if L == pcbnew.F_Cu else pcbnew.F_Cu
+        bb = o.BBox()
+        x0, y0 = mm(bb.GetX()), mm(bb.GetY())
+        x1, y1 = x0 + mm(bb.GetWidth()), y0 + mm(bb.GetHeight())
+        y = y0
+        while y <= y1:
+            x = x0
+            while x <= x1:
+                p = pcbnew.VECTOR2I(MM(x), MM(y))
+                # the via's whole pad inside both fragments: test its rim
+                rim = [pcbnew.VECTOR2I(MM(x + rules.via / 2 * math.cos(a)),
+                                       MM(y + rules.via / 2 * math.sin(a)))
+                       for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
+                if o.PointInside(p) and all(o.PointInside(q) for q in rim):
+                    tgt = [k for k in main if k[0] == other]
+                    ok = [k for k in tgt if frags[other].Outline(k[1]).PointInside(p)
+                          and all(frags[other].Outline(k[1]).PointInside(q) for q in rim)]
+                    if ok and free(x, y):
+                        v = pcbnew.PCB_VIA(board)
+                        v.SetPosition(p)
+                        v.SetWidth(MM(rules.via))
+                        v.SetDrill(MM(rules.drill))
+                        v.SetNet(board.FindNet(netc))
+                        board.Add(v)
+                        return True
+                x += step
+            y += step
+    return False

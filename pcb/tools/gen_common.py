@@ -2,8 +2,10 @@
 """Shared helpers of the board generators (run with /usr/bin/python3: pcbnew is there)."""
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -95,3 +97,17 @@ def write_hole(lib: Path, name: str, d: float) -> None:
     lib.mkdir(parents=True, exist_ok=True)
     (lib / f"{name}.kicad_mod").write_text(HOLE_MOD.format(name=name, d=d, r=round(d / 2, 4)),
                                            encoding="utf-8")
+
+
+def generator_main(doc: str, name: str, default_out: Path, build) -> int:
+    """The command line of a shield generator: ``--out DIR``; exit 1 with what did not
+    route."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--out", default=str(default_out), help="project folder")
+    a = ap.parse_args()
+    failed = build(Path(a.out))
+    if failed:
+        print("unrouted: " + ", ".join(failed), file=sys.stderr)
+        return 1
+    print(f"{name} board written to {a.out}")
+    return 0

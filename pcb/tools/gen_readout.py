@@ -8,7 +8,6 @@ jumper, the piezo preamp and the FFC connector; pin map = firmware/src/pins.h.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from functools import partial
 from pathlib import Path
@@ -17,7 +16,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import fingertip_geometry as geo  # noqa: E402
-from gen_common import finish_project, netlist, write_project_files  # noqa: E402
+from gen_common import (finish_project, generator_main, netlist,  # noqa: E402
+                        write_project_files)
 from schematic import Part, Schematic, uid  # noqa: E402
 
 NAME = "readout"
@@ -29,6 +29,8 @@ DOUT_PIN = {0: "D2", 1: "D3", 2: "D4", 3: "D5"}
 # Arduino_UNO_R3 symbol pin numbers of the header pins used.
 UNO_PIN = {"D2": "17", "D3": "18", "D4": "19", "D5": "20", "D12": "27", "D13": "28",
            "+5V": "5", "GND1": "6", "GND2": "7", "GND3": "29"}
+UNO_PIN.update({f"D{k}": str(15 + k) for k in range(6, 12)})   # D6..D11 (hand board)
+UNO_PIN.update({f"A{k}": str(9 + k) for k in range(6)})        # A0..A5
 # Board frame: shield top-left corner at (100, 100), 68.58 x 53.34 mm (Uno R3 outline).
 BX, BY, BW, BH = 100.0, 100.0, 68.58, 53.34
 
@@ -105,7 +107,7 @@ def add_c(sch: Schematic, ref: str, val: str, a: str, b: str, at) -> None:
 
 
 def add_channel(sch: Schematic, n: int, x0: float, y0: float, vsup: str = "+5V",
-                dvdd: str = "+5V") -> None:
+                dvdd: str = "+5V", dvdd_cap: bool = False) -> None:
     """One HX711 channel n (datasheet circuit, quarter-bridge completion) at schematic
     (x0, y0). vsup feeds the chip's regulator and the AVDD pass transistor (the excitation
     current), dvdd its digital side; the 4-channel shield has both on the Uno's +5V."""
@@ -137,7 +139,7 @@ def add_channel(sch: Schematic, n: int, x0: float, y0: float, vsup: str = "+5V",
     C(f"C{k + 2}", "100n", f"AVDD{n}", "GND", (x0 - 55, y0 - 5))
     C(f"C{k + 3}", "100n", f"VBG{n}", "GND", (x0 - 50, y0 + 15))
     C(f"C{k + 4}", "100n", vsup, "GND", (x0 + 20, y0 - 30))
-    if dvdd != vsup:
+    if dvdd_cap:
         C(f"C{k + 5}", "100n", dvdd, "GND", (x0 + 30, y0 - 30))
     sch.power_flag(f"AVDD{n}", (x0 - 60, y0 - 20))
 
@@ -279,7 +281,7 @@ def place_channel(pl: dict, n: int, cx: float, cy: float, dvdd_cap: bool = False
     pl[f"C{k + 1}"] = (cx - 2.3, cy - 7.2, 0.0)
     pl[f"C{k + 4}"] = (cx + 1.9, cy - 7.2, 0.0)
     if dvdd_cap:
-        pl[f"C{k + 5}"] = (cx + 5.6, cy - 4.6, 90.0)
+        pl[f"C{k + 5}"] = (cx + 5.0, cy - 4.6, 90.0)
     pl[f"R{k + 3}"] = (cx - 3.0, cy + 8.6, 0.0)
     pl[f"R{k + 4}"] = (cx + 0.4, cy + 8.6, 0.0)
     pl[f"R{k + 5}"] = (cx + 3.8, cy + 8.6, 0.0)
@@ -350,7 +352,8 @@ def build(out: Path) -> list[str]:
 
 def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
                     size: tuple[float, float], pl: dict, channels: int, jacks: list[str],
-                    texts: list[tuple[str, float, float]], descr: str = "readout") -> list[str]:
+                    texts: list[tuple[str, float, float]], descr: str = "readout",
+                    stitch_pitch: float = 4.0, join: bool = False) -> list[str]:
     """Write a shield project: footprints, schematic, routed board; returns what failed.
     base: routing order of the nets (the rest after them, sorted)."""
     out.mkdir(parents=True, exist_ok=True)
@@ -368,17 +371,18 @@ def generate_shield(out: Path, name: str, sch: Schematic, base: list[str],
     order = [full[b] for b in base if b in full]
     missing = sorted(set(full) - set(base))
     order += [full[m] for m in missing]
-    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts)
+    failed = shield_board(out, name, sch, pin_nets, order, size, pl, channels, jacks, texts,
+                          stitch_pitch, join)
     finish_project(out / f"{name}.kicad_pro", uid(name, "root"))
     (out / f"{name}.kicad_prl").unlink(missing_ok=True)
     return failed
 
 
 def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl, channels,
-                 jacks, texts) -> list[str]:
+                 jacks, texts, stitch_pitch: float = 4.0, join: bool = False) -> list[str]:
     """Place, route (GND as planes), stitch, pour and save; Uno outline at (BX, BY)."""
     import pcbnew
-    from board import BoardBuilder, Rules, polygon_inside, stitch
+    from board import BoardBuilder, Rules, join_fragments, polygon_inside, stitch
 
     pcbnew.KIID.SeedGenerator(1)   # same item UUIDs every run: byte-identical output
     rules = Rules(track=0.2, clearance=0.15, via=0.6, drill=0.3, edge=0.3, hole_clearance=0.25,
@@ -406,13 +410,16 @@ def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl
     gnd = next(n for n in bb.nets if n.lstrip("/") == "GND")
     failed = bb.route_all(order, inside, (BX - 0.5, BY - 0.5, BX + w + 0.5, BY + h + 0.5),
                           plane_nets=(gnd,))
-    stitch(bb, gnd)
+    stitch(bb, gnd, stitch_pitch)
     inset = [(BX + 0.4, BY + 0.4), (BX + w - 0.4, BY + 0.4), (BX + w - 0.4, BY + h - 0.4),
              (BX + 0.4, BY + h - 0.4)]
     bb.zone(gnd, pcbnew.B_Cu, inset)
     bb.zone(gnd, pcbnew.F_Cu, inset)
     for txt, x, y in texts:
         bb.text(txt, x, y, size=0.8)
+    if join:
+        pcbnew.ZONE_FILLER(bb.board).Fill(bb.board.Zones())
+        join_fragments(bb.board, gnd, rules)
     unconnected = bb.save()
     if unconnected:
         failed.append(f"{unconnected} unconnected item(s) after the zone fill")
@@ -420,15 +427,7 @@ def shield_board(out: Path, name: str, sch: Schematic, pin_nets, order, size, pl
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(HERE.parent / NAME), help="project folder")
-    a = ap.parse_args()
-    failed = build(Path(a.out))
-    if failed:
-        print("unrouted: " + ", ".join(failed), file=sys.stderr)
-        return 1
-    print(f"readout board written to {a.out}")
-    return 0
+    return generator_main(__doc__, "readout", HERE.parent / NAME, build)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ sys.path.insert(0, str(PCB / "tools"))
 import fingertip_geometry as geo  # noqa: E402
 from sexpr import find, find_all, parse  # noqa: E402
 
-BOARDS = ["fingertip", "readout"]
+BOARDS = ["fingertip", "readout", "hand"]
 SYS_PY = "/usr/bin/python3"
 
 
@@ -151,9 +151,9 @@ def readout_netlist(outdir):
     return nets
 
 
-def uno_pin_numbers() -> dict[str, str]:
+def uno_pin_numbers(board: str = "readout") -> dict[str, str]:
     """Arduino pin name (D2, A0, ...) -> symbol pin number, from the embedded symbol."""
-    tree = parse((PCB / "readout" / "readout.kicad_sch").read_text())
+    tree = parse((PCB / board / f"{board}.kicad_sch").read_text())
     sym = next(s for s in find_all(find(tree, "lib_symbols"), "symbol")
                if s[1] == "MCU_Module:Arduino_UNO_R3")
     out = {}
