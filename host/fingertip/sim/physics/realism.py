@@ -288,13 +288,14 @@ class SlowCreep:
         dt = np.diff(t, prepend=t[0] if self.t_last is None else self.t_last)
         if np.any(dt < 0):
             raise ValueError("times must not go backwards")
-        a = np.broadcast_to(np.exp(-dt[:, None] / self.tau_s)[:, None, :],
-                            (x.shape[0], *self.fraction.shape))      # (N, 4, K)
         if x.shape[0] == 1:      # one conversion (the device path): no scan needed
-            st = a[0] * self.state + (1 - a[0]) * x[0][:, None]
+            a1 = np.exp(-dt[0] / self.tau_s)                          # (K,)
+            st = a1 * self.state + (1 - a1) * x[0][:, None]
             out = x + (self.fraction * st).sum(axis=1)[None, :]
             last = st
         else:
+            a = np.broadcast_to(np.exp(-dt[:, None] / self.tau_s)[:, None, :],
+                                (x.shape[0], *self.fraction.shape))  # (N, 4, K)
             st = affine_scan(a, (1 - a) * x[:, :, None], self.state)
             out = x + (self.fraction * st).sum(axis=2)
             last = st[-1]

@@ -263,7 +263,7 @@ class VirtualStrainSensor:
         lever = zc[:, None] - zg[None, :]
         eps = -(c * fn + e_lat * ft) * lever / ei
         eps = eps - fz[:, None] / self.axial_rigidity_n
-        if self.realism.contact:
+        if self.realism.contact and np.any(fz):
             point = c * NORMALS + e_lat[:, None] * TANGENTS
             eps = eps + eccentric_strain(
                 f, fz * kept, point, self.realism_params.contact.surface_radius_mm * 1e-3, ei)
