@@ -20,7 +20,10 @@ Chain for each of the four faces (face i has outward normal at i * 90 degrees: +
 
 Every unit draws its own deviations (gauge angle, position, gauge factor, glue, modulus,
 resistor tolerances, pre-strain, base shunt, hysteresis, creep, thermal coefficients, noise)
-from its seed, so each virtual fingertip needs its own calibration.
+from its seed, so each virtual fingertip needs its own calibration. On top of this, every unit
+has the documented error sources of :mod:`.realism` (the room's temperature, slow creep, the
+bridge resistors' and the HX711's drift, the eccentric moment of a vertical contact force,
+the base's relaxation), each switchable with ``realism=``.
 """
 from __future__ import annotations
 
