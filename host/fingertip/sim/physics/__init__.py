@@ -4,6 +4,8 @@
   the CAD) as frozen dataclasses.
 - :mod:`.strain`: cantilever prism -> gauge strain -> quarter bridge -> HX711 counts, with
   per-unit variation, cross-talk, hysteresis, creep, temperature drift, noise, saturation.
+- :mod:`.realism`: the documented error sources of a real unit (``realism.toml``), each
+  switchable (:class:`Realism`; all on by default).
 - :mod:`.vibration`, :mod:`.materials`: dynamic force at the nail -> cap modes -> piezo ->
   preamp (gain, clipping, hum, noise) -> sound-card samples.
 - :mod:`.scenes`, :mod:`.simulate`: scenes declare the signals they need; only those are

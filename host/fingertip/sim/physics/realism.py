@@ -288,15 +288,19 @@ class SlowCreep:
         dt = np.diff(t, prepend=t[0] if self.t_last is None else self.t_last)
         if np.any(dt < 0):
             raise ValueError("times must not go backwards")
-        out = x.copy()
-        new_state = self.state.copy()
-        for k, tau in enumerate(self.tau_s):
-            a = np.exp(-dt / tau)[:, None].repeat(x.shape[1], 1)
-            s = affine_scan(a, (1 - a) * x, self.state[:, k])
-            out += self.fraction[:, k] * s
-            new_state[:, k] = s[-1]
+        if x.shape[0] == 1:      # one conversion (the device path): no scan needed
+            a1 = np.exp(-dt[0] / self.tau_s)                          # (K,)
+            st = a1 * self.state + (1 - a1) * x[0][:, None]
+            out = x + (self.fraction * st).sum(axis=1)[None, :]
+            last = st
+        else:
+            a = np.broadcast_to(np.exp(-dt[:, None] / self.tau_s)[:, None, :],
+                                (x.shape[0], *self.fraction.shape))  # (N, 4, K)
+            st = affine_scan(a, (1 - a) * x[:, :, None], self.state)
+            out = x + (self.fraction * st).sum(axis=2)
+            last = st[-1]
         if update:
-            self.state = new_state
+            self.state = last.copy()
             self.t_last = float(t[-1])
         return out
 

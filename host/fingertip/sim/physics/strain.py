@@ -20,7 +20,10 @@ Chain for each of the four faces (face i has outward normal at i * 90 degrees: +
 
 Every unit draws its own deviations (gauge angle, position, gauge factor, glue, modulus,
 resistor tolerances, pre-strain, base shunt, hysteresis, creep, thermal coefficients, noise)
-from its seed, so each virtual fingertip needs its own calibration.
+from its seed, so each virtual fingertip needs its own calibration. On top of this, every unit
+has the documented error sources of :mod:`.realism` (the room's temperature, slow creep, the
+bridge resistors' and the HX711's drift, the eccentric moment of a vertical contact force,
+the base's relaxation), each switchable with ``realism=``.
 """
 from __future__ import annotations
 
@@ -263,7 +266,7 @@ class VirtualStrainSensor:
         lever = zc[:, None] - zg[None, :]
         eps = -(c * fn + e_lat * ft) * lever / ei
         eps = eps - fz[:, None] / self.axial_rigidity_n
-        if self.realism.contact:
+        if self.realism.contact and np.any(fz):
             point = c * NORMALS + e_lat[:, None] * TANGENTS
             eps = eps + eccentric_strain(
                 f, fz * kept, point, self.realism_params.contact.surface_radius_mm * 1e-3, ei)
