@@ -139,18 +139,6 @@ def hand_spec_from_args(args: argparse.Namespace) -> HandSpec | None:
                     serial=getattr(args, "serial", None))
 
 
-def check_channels(spec: HandSpec, hand: Hand) -> None:
-    """After opening: a split needs the device to have the channels it names."""
-    if spec.groups is None:
-        return
-    dev = hand.device(spec.fingers[0])
-    need = max(c for chans in spec.groups.values() for c in chans) + 1
-    if dev.channels < need:
-        raise ValueError(f"--hand-split needs {need} channels but the device on "
-                         f"{dev.port} has {dev.channels} (flash the 16-channel firmware: "
-                         "`fingertip flash --channels 16`)")
-
-
 def hand_audio_from_args(args: argparse.Namespace, fingers: Sequence[str], *,
                          sample_rate: float = 44100.0, dtype: str = "int16"
                          ) -> list[tuple[object, list[str]]]:

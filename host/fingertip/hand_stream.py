@@ -9,19 +9,19 @@ import time
 
 from .device import FingertipError
 from .frame_text import frame_json, frame_line
-from .hand_args import HandSpec, check_channels
+from .hand_args import HandSpec
 
 log = logging.getLogger("fingertip")
 
 
 def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
     hand = spec.build()
-    with hand:
-        try:
-            check_channels(spec, hand)
-        except ValueError as e:
-            log.error("%s", e)
-            return 2
+    try:
+        hand.open()  # refuses a split that names channels the device does not have
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
+    try:
         devices = {id(hand.device(f)): hand.device(f) for f in hand.fingers}
         for dev in devices.values():
             if args.rate or args.decimation:
@@ -58,4 +58,6 @@ def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
                   f"errors {st.cobs_errors}, reconnects {st.reconnects}", file=sys.stderr)
         print(f"{n} finger frames ({', '.join(hand.fingers)}); hand queue overruns "
               f"{hand.overruns}", file=sys.stderr)
+    finally:
+        hand.close()
     return 0

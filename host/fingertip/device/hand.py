@@ -113,8 +113,16 @@ class Hand:
                 opened.append(dev)
             for name, (dev, chans) in self._fingers.items():
                 if chans is not None and max(chans) >= dev.channels:
-                    raise ValueError(f"finger {name!r} uses channel {max(chans)}, but "
-                                     f"{dev.name} has {dev.channels} (0..{dev.channels - 1})")
+                    need = max(max(c) for d, c in self._fingers.values()
+                               if d is dev and c is not None) + 1
+                    raise ValueError(
+                        f"finger {name!r} uses channel {max(chans)}, but {dev.name} has "
+                        f"{dev.channels} (0..{dev.channels - 1}): this hand needs {need} "
+                        f"channels on it (flash the {need}-channel firmware: "
+                        f"`fingertip flash --channels {need}`)"
+                        if need in (4, 16) else
+                        f"finger {name!r} uses channel {max(chans)}, but {dev.name} has "
+                        f"{dev.channels} (0..{dev.channels - 1})")
         except BaseException:
             for dev in opened:
                 dev.close()
