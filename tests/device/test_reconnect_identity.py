@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 
 from fingertip import Fingertip
+from fingertip.protocol import Start, encode
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.pty_device import PtyDevice
 
@@ -24,7 +25,9 @@ def test_a_foreign_device_on_the_path_is_refused(tmp_path):
         assert wait_for(lambda: len(got) >= 5, 5)
         first.stop()  # unplugged; something else takes the path
         with PtyDevice(VirtualFirmware(16), link=link) as other:
-            other.firmware.streaming = True  # it streams without being asked
+            # It streams without being asked by this host: someone else started it.
+            with open(link, "wb", buffering=0) as port:
+                port.write(encode(Start(1)))
             assert wait_for(lambda: ft.stats.foreign_devices >= 1, 10)
             n = len(got)
             time.sleep(0.5)
