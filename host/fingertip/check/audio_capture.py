@@ -25,15 +25,12 @@ class SoundCardAudio:
     def stop(self, device_time_s: float) -> tuple[np.ndarray, float]:
         src, self._src = self._src, None
         assert src is not None
+        # Stop first, then drain what was captured: a live card keeps delivering, so reading
+        # until a read comes back empty could go on for ever.
+        src.stop()
         chunks = []
-        try:
-            while True:
-                c = src.read(timeout=0.05)
-                if c is None or not c.frames:
-                    break
-                chunks.append(c)
-        finally:
-            src.stop()
+        while (c := src.read(timeout=0)) is not None and c.frames:
+            chunks.append(c)
         if not chunks:
             return np.zeros(0, np.float32), device_time_s
         x = np.concatenate([c.samples.reshape(len(c.samples), -1)[:, 0] for c in chunks])
