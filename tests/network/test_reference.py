@@ -53,3 +53,31 @@ def test_ros_domain_id_separates_networks(monkeypatch):
     finally:
         same.close()
         other.close()
+
+
+def test_a_wrench_topic_as_the_calibration_reference():
+    """`calibrate record --ros-topic`: the topic's samples, timed on this host's monotonic
+    clock (the fingertip frames' clock), as the ReferenceSamples the join takes."""
+    import time
+
+    import numpy as np
+
+    from fingertip.network.reference import WrenchTopicSource
+
+    src = WrenchTopicSource("/fingertip/index/wrench")
+    src.start()
+    t0 = time.monotonic()
+    pub = start("publish", "--virtual", "1", "--name", "index", "--force-model",
+                FORCE_MODEL, "--duration", "3")
+    try:
+        _, err = pub.communicate(timeout=60)
+    finally:
+        ref = src.stop()
+    assert pub.returncode == 0, err
+    assert len(ref) >= 100 and ref.force.shape == (len(ref), 3)
+    assert ref.torque is not None and ref.torque.shape == (len(ref), 3)
+    assert np.all(np.diff(ref.times_s) >= 0) and t0 <= ref.times_s[0] <= time.monotonic()
+    assert ref.counters["messages"] == len(ref) and ref.counters["bad"] == 0
+    assert ref.source == "dds:/fingertip/index/wrench"
+    with pytest.raises(RuntimeError, match="not started"):
+        src.stop()

@@ -56,6 +56,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     fingertip live or from --fingertip-csv). --virtual runs it all on a virtual fingertip
     with a simulated RDT sensor on 127.0.0.1."""
     from ..device import Fingertip, FingertipError
+    from ..network import ExtraMissing  # light: the transports import their extras lazily
     from ..protocol import ProtocolVersionError
     from ..reference import ReferenceError, load_reference_csv
     from ..reference.rdt import RdtClient
@@ -87,10 +88,11 @@ def _cmd_record(args: argparse.Namespace) -> int:
                     ft = stack.enter_context(Fingertip(args.port) if args.port else
                                              Fingertip(serial_number=args.serial))
                     serial = args.device_serial or ft.serial_number or ""
-                if args.rdt:
-                    src = RdtClient(args.rdt[0], args.rdt[1],
-                                    counts_per_force=args.counts_per_force,
-                                    counts_per_torque=args.counts_per_force)
+                if args.rdt or args.ros_topic:
+                    src = _network_reference(args) if args.ros_topic else \
+                        RdtClient(args.rdt[0], args.rdt[1],
+                                  counts_per_force=args.counts_per_force,
+                                  counts_per_torque=args.counts_per_force)
                     rec, ref = record_session(ft, src, args.duration, before=begin,
                                               progress=say)
                     sources = (src.name,)
@@ -98,14 +100,15 @@ def _cmd_record(args: argparse.Namespace) -> int:
                     if say:
                         say(f"reference: {len(ref)} samples, {lost} lost")
                 else:
-                    log.error("give a reference: --rdt HOST[:PORT] or --reference-csv FILE "
+                    log.error("give a reference: --rdt HOST[:PORT], --ros-topic TOPIC or "
+                              "--reference-csv FILE "
                               "(with --fingertip-csv)")
                     return 2
             if args.reference_csv and not args.fingertip_csv:
                 ref = load_reference_csv(args.reference_csv)
                 sources = (str(args.reference_csv),)
             joined = align_and_join(rec, ref, max_lag_s=args.max_offset)
-    except (ReferenceError, AlignmentError) as e:
+    except (ReferenceError, AlignmentError, ExtraMissing) as e:
         log.error("%s", e)
         return 2
     except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
@@ -194,6 +197,14 @@ def _cmd_weights(args: argparse.Namespace) -> int:
         v for k, v in report.files.items() if k != "chosen"))
 
 
+def _network_reference(args: argparse.Namespace):
+    """--ros-topic: a geometry_msgs/WrenchStamped topic over DDS or Zenoh (an optional
+    extra: its absence is one line naming it)."""
+    from ..network.reference import WrenchTopicSource
+
+    return WrenchTopicSource(args.ros_topic, args.ros_transport)
+
+
 def add_parser(csub) -> None:
     from .calibration_cli import _models
 
@@ -206,6 +217,12 @@ def add_parser(csub) -> None:
                    help="a virtual fingertip with a simulated RDT sensor on 127.0.0.1")
     r.add_argument("--rdt", type=_rdt_address, metavar="HOST[:PORT]",
                    help="an ATI Net F/T or Axia streaming RDT (UDP, default port 49152)")
+    r.add_argument("--ros-topic", metavar="TOPIC",
+                   help="a geometry_msgs/WrenchStamped topic (e.g. /ft_sensor/wrench) from a "
+                        "reference on the ROS 2 network (extra: fingertip[ros] or [zenoh])")
+    r.add_argument("--ros-transport", choices=("dds", "zenoh"), default="dds",
+                   help="--ros-topic over DDS (rmw_cyclonedds/fastrtps) or rmw_zenoh "
+                        "(default dds)")
     r.add_argument("--counts-per-force", type=number(float, 1e-9), default=1_000_000,
                    help="the sensor's counts per newton (its cfgcpf; default 1000000)")
     r.add_argument("--reference-csv", metavar="FILE",

@@ -9,8 +9,13 @@ from __future__ import annotations
 
 import logging
 import queue
+import threading
+import time
+
+import numpy as np
 
 from ..record import schemas as S
+from ..reference.samples import ReferenceSamples
 
 log = logging.getLogger(__name__)
 
@@ -55,12 +60,18 @@ class WrenchReference:
             self.bad += 1
             return
         try:
-            self._queue.put_nowait(msg)
+            self._queue.put_nowait((time.monotonic(), msg))
         except queue.Full:
             self.dropped += 1
 
     def get(self, timeout: float | None = None) -> S.WrenchMsg | None:
         """The next wrench, or None after ``timeout`` seconds."""
+        got = self.get_timed(timeout)
+        return None if got is None else got[1]
+
+    def get_timed(self, timeout: float | None = None) -> tuple[float, S.WrenchMsg] | None:
+        """The next wrench with its arrival time on this host's ``time.monotonic()`` clock,
+        or None after ``timeout`` seconds."""
         try:
             return self._queue.get(timeout=timeout)
         except queue.Empty:
@@ -74,3 +85,61 @@ class WrenchReference:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class WrenchTopicSource:
+    """A ``WrenchStamped`` topic as the live reference of ``fingertip calibrate record``
+    (a :class:`~fingertip.reference.WrenchSource`).
+
+    Samples are timed by their arrival on this host (``time.monotonic()``, the clock of the
+    fingertip's frames), not by their header stamps: the sender's clock may be another
+    computer's. The constant part of the network delay is then found with the clock offset
+    that ``calibrate record`` estimates from the data, as for any reference.
+    """
+
+    def __init__(self, topic: str, transport: str = "dds", *,
+                 connect: list[str] | None = None) -> None:
+        self.topic = topic
+        self.transport = transport
+        self.connect = connect
+        self.name = f"{transport}:{topic}"
+        self._ref: WrenchReference | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._rows: list[tuple[float, tuple[float, ...], tuple[float, ...]]] = []
+
+    def start(self) -> None:
+        if self._ref is not None:
+            raise RuntimeError(f"{self.name} is already started")
+        self._ref = WrenchReference(self.topic, self.transport, connect=self.connect)
+        self._stop.clear()
+        self._rows = []
+        self._thread = threading.Thread(target=self._drain, daemon=True,
+                                        name=f"reference-{self.topic}")
+        self._thread.start()
+
+    def _drain(self) -> None:
+        ref = self._ref
+        assert ref is not None
+        while not self._stop.is_set():
+            got = ref.get_timed(timeout=0.1)
+            if got is not None:
+                t, m = got
+                self._rows.append((t, m.force, m.torque))
+
+    def stop(self) -> ReferenceSamples:
+        """Stop listening; the samples received since :meth:`start`."""
+        ref, self._ref = self._ref, None
+        if ref is None:
+            raise RuntimeError(f"{self.name} was not started")
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        ref.close()
+        rows = self._rows
+        times = np.array([r[0] for r in rows], float)
+        force = np.array([r[1] for r in rows], float).reshape(-1, 3)
+        torque = np.array([r[2] for r in rows], float).reshape(-1, 3)
+        return ReferenceSamples(times, force, torque, source=self.name,
+                                counters={"messages": len(rows), "bad": ref.bad,
+                                          "dropped": ref.dropped})
