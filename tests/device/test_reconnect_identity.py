@@ -24,7 +24,7 @@ def test_a_foreign_device_on_the_path_is_refused(tmp_path):
         ft.start()
         assert wait_for(lambda: len(got) >= 5, 5)
         first.stop()  # unplugged; something else takes the path
-        with PtyDevice(VirtualFirmware(16), link=link) as other:
+        with PtyDevice(VirtualFirmware(16), link=link):
             # It streams without being asked by this host: someone else started it.
             with open(link, "wb", buffering=0) as port:
                 port.write(encode(Start(1)))
