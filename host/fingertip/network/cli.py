@@ -19,15 +19,22 @@ log = logging.getLogger("fingertip")
 TRANSPORTS = ("dds", "zenoh", "lsl")
 
 
-def load_force_model(spec: str):
-    """A ``.onnx`` file (:class:`~fingertip.models.ForceModel`) or ``module:function``."""
-    if spec.endswith(".onnx"):
-        from ..models import ForceModel
+def _checked_force_model(path: str, sources: list, model):
+    """``--force-model FORCE.onnx`` checked against every live fingertip (channels, units,
+    device serial; refused with the reason), as ``stream`` and ``record`` do. A replay's
+    frames are taken as they are."""
+    from ..device import Fingertip
+    from ..models.force_load import check_model, device_serial, force_model_for
 
-        return ForceModel(spec)
-    from ..record.cli import load_force_model as load_callable
-
-    return load_callable(spec)
+    live = [s for s in sources if isinstance(s, Fingertip)]
+    if not live:
+        return model
+    model = force_model_for(live[0], path)
+    for ft in live[1:]:
+        for w in check_model(model, channels=ft.channels, serial=device_serial(ft),
+                             gain=int(ft.info.gain)):
+            log.warning("%s", w)
+    return model
 
 
 def _names(args: argparse.Namespace, n: int) -> list[str]:
@@ -127,6 +134,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                   "--audio-file or --virtual-audio")
         return 2
     try:
+        from ..record.cli import load_force_model
+
         force_model = load_force_model(args.force_model) if args.force_model else None
         classifiers = _load_classifiers(args)
     except (ValueError, OSError) as e:
@@ -137,6 +146,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             transport = make_transport(args.transport, args)
             stack.callback(transport.close)
             sources = _open_sources(args, stack)
+            if args.force_model and args.force_model.lower().endswith(".onnx"):
+                force_model = _checked_force_model(args.force_model, sources, force_model)
             names = ([sources[0].name] if args.replay else _names(args, len(sources)))
             audio = _audio_source(args)
             rec = None
