@@ -135,8 +135,55 @@ def hand_spec_from_args(args: argparse.Namespace) -> HandSpec | None:
         if names is not None or getattr(args, "hand_audio", None) is not None:
             raise ValueError("--finger-names and --hand-audio need --hand or --hand-split")
         return None
-    return HandSpec(groups=parse_split(split, names), port=getattr(args, "port", None),
-                    serial=getattr(args, "serial", None))
+    return HandSpec(groups=parse_split(split, names), port=_one(args, "port"),
+                    serial=_one(args, "serial"))
+
+
+def _one(args: argparse.Namespace, what: str) -> str | None:
+    """``--port``/``--serial`` of the device to split: commands that take several (``check``,
+    ``publish``: repeatable options) must give exactly one with ``--hand-split``."""
+    value = getattr(args, what, None)
+    if not isinstance(value, list):
+        return value
+    if len(value) != 1:
+        raise ValueError(f"--hand-split splits one device: give one --{what}, not "
+                         f"{len(value)}")
+    return value[0]
+
+
+@dataclass(frozen=True)
+class AudioInput:
+    """One finger's microphone: input ``channel`` of the ``channels``-input ``device`` (a
+    sound card, or a .wav/.flac file standing in for one)."""
+
+    device: str
+    channel: int = 0
+    channels: int = 1
+
+    @property
+    def is_file(self) -> bool:
+        return self.device.lower().endswith((".wav", ".flac"))
+
+    @property
+    def card(self) -> int | str:
+        return int(self.device) if self.device.isdigit() else self.device
+
+
+def hand_audio_inputs(args: argparse.Namespace, fingers: Sequence[str]
+                      ) -> dict[str, AudioInput]:
+    """``--hand-audio`` -> finger -> its microphone (without opening anything): one
+    multi-input card whose input k is the k-th finger's, or one card per named finger."""
+    text = getattr(args, "hand_audio", None)
+    if text is None:
+        return {}
+    if "=" in text:
+        per = parse_assignments(text, "--hand-audio")
+        unknown = [n for n in per if n not in fingers]
+        if unknown:
+            raise ValueError(f"--hand-audio: no finger named {unknown[0]!r} "
+                             f"(fingers: {', '.join(fingers)})")
+        return {n: AudioInput(dev) for n, dev in per.items()}
+    return {n: AudioInput(text.strip(), k, len(fingers)) for k, n in enumerate(fingers)}
 
 
 def hand_audio_from_args(args: argparse.Namespace, fingers: Sequence[str], *,
@@ -144,19 +191,16 @@ def hand_audio_from_args(args: argparse.Namespace, fingers: Sequence[str], *,
                          ) -> list[tuple[object, list[str]]]:
     """``--hand-audio`` -> [(source, finger names)]: one source whose channel k is the k-th
     finger's microphone, or one mono source per finger. Sources are not started."""
-    text = getattr(args, "hand_audio", None)
-    if text is None:
+    inputs = hand_audio_inputs(args, fingers)
+    if not inputs:
         return []
-    if "=" in text:
-        per = parse_assignments(text, "--hand-audio")
-        unknown = [n for n in per if n not in fingers]
-        if unknown:
-            raise ValueError(f"--hand-audio: no finger named {unknown[0]!r} "
-                             f"(fingers: {', '.join(fingers)})")
-        return [(_audio_source(dev, 1, sample_rate, dtype), [n]) for n, dev in per.items()]
-    src = _audio_source(text, len(fingers), sample_rate, dtype)
+    first = next(iter(inputs.values()))
+    if first.channels == 1:
+        return [(_audio_source(a.device, 1, sample_rate, dtype), [n])
+                for n, a in inputs.items()]
+    src = _audio_source(first.device, first.channels, sample_rate, dtype)
     if src.channels < len(fingers):
-        raise ValueError(f"--hand-audio: {text} has {src.channels} channel(s) for "
+        raise ValueError(f"--hand-audio: {first.device} has {src.channels} channel(s) for "
                          f"{len(fingers)} fingers")
     return [(src, list(fingers))]
 

@@ -4,6 +4,7 @@ frames per fingertip, forces per fingertip, four microphones on four topics."""
 from __future__ import annotations
 
 import json
+import signal
 import subprocess
 import sys
 import time
@@ -104,3 +105,91 @@ def test_hand_split_needs_the_16_channel_firmware(make_sim):
     assert r.returncode == 2
     lines = [x for x in r.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and "needs 16 channels" in lines[0] and "--channels 16" in lines[0]
+
+
+def test_publish_hand_split_4x4_to_a_subscriber_in_another_process(make_sim, tmp_path,
+                                                                  monkeypatch):
+    """`publish --port P --hand-split 4x4 --hand-audio 4-INPUT` over DDS on loopback: a
+    `record --from dds` in another process sees the four fingertips' topics, each with its
+    own channels, forces and microphone."""
+    from tests.network.conftest import localhost_only, start, wait_line
+
+    localhost_only.__wrapped__(monkeypatch)
+    fs = 44100
+    t = np.arange(int(fs * 4))
+    audio = np.stack([(np.sin(t * 0.01 * (k + 1)) * 3000 * (k + 1)).astype(np.int16)
+                      for k in range(4)], axis=1)
+    wav = tmp_path / "hand4.wav"
+    sf.write(wav, audio, fs, subtype="PCM_16")
+    sim = started_sim(make_sim)
+    remote = tmp_path / "remote.mcap"
+    sub = start("record", "--from", "dds", "--name", ",".join(FINGERS), "-o", str(remote))
+    try:
+        wait_line(sub, "recording index")
+        pub = start("publish", "--port", sim.pty, "--hand-split", "4x4", "--finger-names",
+                    ",".join(FINGERS), "--hand-audio", str(wav), "--force-model",
+                    "tests.record.models:linear", "--duration", "3",
+                    "--wait-subscribers", "1", "--wait-timeout", "30")
+        _, err = pub.communicate(timeout=120)
+        assert pub.returncode == 0, err
+        assert "publishing index, middle, ring, thumb over dds" in err
+        time.sleep(0.5)
+    finally:
+        sub.send_signal(signal.SIGTERM)
+        _, sub_err = sub.communicate(timeout=30)
+    assert sub.returncode == 0, sub_err
+    rec = Recording(remote)
+    assert rec.devices() == sorted(FINGERS)
+    got: dict[str, dict[str, list]] = {f: {} for f in FINGERS}
+    for m in rec.records():
+        got[m.name].setdefault(m.kind, []).append(m.msg)
+    for k, f in enumerate(FINGERS):
+        raw = got[f]["raw"]
+        assert len(raw) >= 100, (f, len(raw))   # 3 s at 80 Hz, whatever the VM's load
+        chans = [value(c) for c in range(4 * k, 4 * k + 4)]
+        assert all(list(m.counts) == chans for m in raw)
+        fx, fy = linear(chans)
+        assert len(got[f]["wrench"]) == len(raw)
+        assert all(abs(w.force[0] - fx) < 1e-9 and abs(w.force[1] - fy) < 1e-9
+                   for w in got[f]["wrench"])
+        pcm = np.concatenate([np.frombuffer(a.data, "<i2") for a in got[f]["audio"]])
+        assert len(pcm) >= fs * 2 and all(a.channels == 1 for a in got[f]["audio"])
+        np.testing.assert_array_equal(pcm, audio[:len(pcm), k])
+        assert [e.kind for e in got[f]["events"]][:1] == ["start"]
+        info = json.loads(rec.info(f)) if isinstance(rec.info(f), str) else rec.info(f)
+        assert info["settings"]["device_channels"] == list(range(4 * k, 4 * k + 4))
+    # one device frame -> the same sequence numbers on every finger's topic
+    seqs = [[m.seq for m in got[f]["raw"]] for f in FINGERS]
+    common = set(seqs[0]).intersection(*seqs[1:])
+    assert len(common) >= 0.9 * min(len(s) for s in seqs)
+
+
+def test_check_hand_split_4x4_reports_each_finger(make_sim, tmp_path):
+    """`check --port P --hand-split 4x4` on the 16-channel firmware: one report per finger,
+    and a chip missing on one finger fails that finger only."""
+    sim = make_sim(16, noise=45.0, seed=3)   # the datasheet's noise: a flat line is "stuck"
+    for ch in range(16):
+        sim.set(ch, (100_000, -200_000, 30_000, 50_000)[ch % 4])
+    sim.chip(9, "absent")   # ring = channels 8..11: its second chip
+    sim.go()
+    time.sleep(0.3)
+    report = tmp_path / "hand.json"
+    r = cli("check", "--port", sim.pty, "--hand-split", "4x4", "--finger-names",
+            ",".join(FINGERS), "--no-prompt", "--no-audio", "--report", str(report),
+            timeout=300)
+    assert r.returncode == 1, r.stderr      # a check failed (ring's chip)
+    doc = json.loads(report.read_text())
+    assert [x["finger"] for x in doc["fingertips"]] == FINGERS
+    assert not doc["ok"]
+    for k, x in enumerate(doc["fingertips"]):
+        assert x["device"]["channels"] == 4
+        assert x["device"]["device_channels"] == list(range(4 * k, 4 * k + 4))
+        failed = [(res["check"], res["channel"]) for res in x["results"]
+                  if res["status"] == "fail"]
+        if FINGERS[k] == "ring":
+            assert ("chip answers", 1) in failed, failed     # finger channel 1 = device channel 9
+            assert all(ch in (1, None) for _, ch in failed), failed
+        else:
+            assert x["ok"], failed
+    for f in FINGERS:
+        assert f"== {f}" in r.stdout

@@ -8,17 +8,23 @@ from ..audio import SoundDeviceSource
 
 class SoundCardAudio:
     """Records the card between :meth:`start` and :meth:`stop`. Times are converted to the
-    device clock with the probe's host-device offset (the bridge's clock mapping)."""
+    device clock with the probe's host-device offset (the bridge's clock mapping).
+    ``channel`` of a ``channels``-input card (a hand's 4-input interface: one per finger)."""
 
-    def __init__(self, device: int | str, probe, samplerate: float = 44100) -> None:
+    def __init__(self, device: int | str, probe, samplerate: float = 44100, *,
+                 channel: int = 0, channels: int = 1) -> None:
+        if not 0 <= channel < channels:
+            raise ValueError(f"input {channel} of a {channels}-input card")
         self.device = device
+        self.channel = channel
+        self.channels = channels
         self.probe = probe
         self.sample_rate = float(samplerate)
-        self.name = str(device)
+        self.name = str(device) if channels == 1 else f"{device} input {channel + 1}"
         self._src: SoundDeviceSource | None = None
 
     def start(self, device_time_s: float) -> None:
-        self._src = SoundDeviceSource(self.device, self.sample_rate, channels=1,
+        self._src = SoundDeviceSource(self.device, self.sample_rate, channels=self.channels,
                                       dtype="float32").start()
         self.sample_rate = float(self._src.sample_rate)
 
@@ -33,5 +39,6 @@ class SoundCardAudio:
             chunks.append(c)
         if not chunks:
             return np.zeros(0, np.float32), device_time_s
-        x = np.concatenate([c.samples.reshape(len(c.samples), -1)[:, 0] for c in chunks])
+        x = np.concatenate([c.samples.reshape(len(c.samples), -1)[:, self.channel]
+                            for c in chunks])
         return x, chunks[0].host_time - self.probe.host_minus_device_s

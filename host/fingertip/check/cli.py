@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import logging
 import sys
-from pathlib import Path
 
 from ..argtypes import number
+from ..hand_args import add_hand_args, hand_spec_from_args
+from .output import finish
 
 log = logging.getLogger("fingertip")
 
@@ -68,6 +68,17 @@ def _cmd_check(args: argparse.Namespace) -> int:
         log.error("--fault needs --virtual (faults are simulated)")
         return 2
     say = None if args.quiet else (lambda m: print(f"check: {m}", file=sys.stderr, flush=True))
+    try:
+        if (hand := hand_spec_from_args(args)) is not None:
+            from .hand import check_hand
+
+            return finish(args, hand.fingers, check_hand(hand, args, say), key="finger")
+    except ValueError as e:  # bad hand options
+        log.error("%s", e)
+        return 2
+    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+        log.error("%s", e)
+        return 2
     targets = [("port", p) for p in args.port or []] + \
         [("serial", n) for n in args.serial or []] or [("virtual", "")]
     reports = []
@@ -98,30 +109,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         if kind == "virtual":
             report.device["virtual"] = {"seed": args.seed, "faults": args.fault or []}
         reports.append(report)
-    doc = reports[0].as_dict() if len(reports) == 1 else \
-        {"ok": all(r.ok for r in reports), "fingertips": [r.as_dict() for r in reports]}
-    try:
-        Path(args.report).write_text(json.dumps(doc, indent=1, default=str) + "\n",
-                                     encoding="utf-8")
-    except OSError as e:
-        log.error("cannot write %s: %s", args.report, e.strerror or e)
-        return 2
-    if args.plot and len(reports) == 1 and "rest" in reports[0].recorded:
-        from .plot import plot_check
-
-        report = reports[0]
-        plot_check(report.recorded["rest"], report.recorded.get("responses", {}), args.plot,
-                   "fingertip check: " + ("all passed" if report.ok else
-                                          "failed: " + ", ".join(sorted(report.faults))))
-    if args.json:
-        print(json.dumps(doc, default=str))
-    else:
-        for (_, where), report in zip(targets, reports, strict=True):
-            if len(reports) > 1:
-                print(f"\n== {where}")
-            print(report.table())
-        print(f"report: {Path(args.report)}")
-    return max(r.exit_code() for r in reports)
+    return finish(args, [where for _, where in targets], reports)
 
 
 def add_parsers(sub) -> None:
@@ -134,6 +122,7 @@ def add_parsers(sub) -> None:
     g.add_argument("--serial", action="append", help="USB serial number of its Arduino")
     g.add_argument("--virtual", action="store_true",
                    help="check a virtual fingertip (the simulator presses and taps)")
+    add_hand_args(c, g)
     c.add_argument("--no-prompt", action="store_true",
                    help="skip the guided presses and taps; the report lists what was skipped")
     c.add_argument("--report", default="check-report.json", metavar="FILE.json",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -19,13 +20,19 @@ BRIDGE_COUNTERS = ("crc_errors", "cobs_errors", "framing_errors", "bad_payload",
 
 
 class DeviceProbe:
-    """Wraps an open fingertip for the check; :meth:`restore` puts its settings back."""
+    """Wraps an open fingertip for the check; :meth:`restore` puts its settings back.
+    ``channels``: check only these of the device's channels (one finger of a device split
+    into fingers), seen as channels 0, 1, ... of the segments."""
 
-    def __init__(self, ft: Fingertip) -> None:
+    def __init__(self, ft: Fingertip, channels: Sequence[int] | None = None,
+                 finger: str | None = None) -> None:
         self.ft = ft
         self.info = ft.info
-        self.channels = ft.channels
-        self._offsets = tuple(self.info.tare_offsets[:self.channels])
+        self.device_channels = None if channels is None else tuple(channels)
+        self._cols = list(self.device_channels or range(ft.channels))
+        self.channels = len(self._cols)
+        self.finger = finger
+        self._offsets = tuple(self.info.tare_offsets[:ft.channels])
         self._rate = (self.info.rate_sps, self.info.decimation)
         self.gain = self.info.gain
         self.last_time_s = 0.0
@@ -35,13 +42,16 @@ class DeviceProbe:
 
     def describe(self) -> dict[str, Any]:
         i = self.info
-        return {"port": self.ft.port, "protocol": f"{i.protocol_major}.{i.protocol_minor}",
-                "firmware": ".".join(map(str, i.firmware_version)),
-                "build_id": f"{i.build_id:08x}", "channels": i.channels, "gain": i.gain}
+        out = {"port": self.ft.port, "protocol": f"{i.protocol_major}.{i.protocol_minor}",
+               "firmware": ".".join(map(str, i.firmware_version)),
+               "build_id": f"{i.build_id:08x}", "channels": self.channels, "gain": i.gain}
+        if self.device_channels is not None:
+            out["device_channels"] = list(self.device_channels)
+        return out
 
     def prepare(self) -> None:
         """Untared counts (bridge balance needs them), 80 SPS, counters zeroed, streaming."""
-        self.ft.set_tare_offsets([0] * self.channels)
+        self.ft.set_tare_offsets([0] * self.ft.channels)
         self.ft.set_rate(80, 1)
         self.ft.reset_counters()
         self._host0 = {k: int(getattr(self.ft.stats, k)) for k in BRIDGE_COUNTERS}
@@ -68,13 +78,15 @@ class DeviceProbe:
             self.host_minus_device_s = f.host_time - t
             if t - t_first >= seconds:
                 break
-        n, c = len(rows), self.channels
+        n, c, cols = len(rows), self.channels, self._cols
         counts = np.full((n, c), np.nan)
         tmask = np.zeros(n, np.int64)
         smask = np.zeros(n, np.int64)
         for k, f in enumerate(rows):
-            counts[k] = f.counts[:c]
-            tmask[k], smask[k] = f.timeout_mask, f.saturation_mask
+            counts[k] = [f.counts[j] for j in cols]
+            # the masks' bits renumbered as the segment's columns
+            tmask[k] = sum(((f.timeout_mask >> j) & 1) << i for i, j in enumerate(cols))
+            smask[k] = sum(((f.saturation_mask >> j) & 1) << i for i, j in enumerate(cols))
         for ch in range(c):
             counts[((tmask >> ch) & 1) == 1, ch] = np.nan
         times = np.array([f.device_time_us * 1e-6 for f in rows])

@@ -75,6 +75,11 @@ class Hand:
                            f"{', '.join(self._fingers)})")
         return self._fingers[finger][0]
 
+    def channels_of(self, finger: str) -> tuple[int, ...] | None:
+        """The device channels of ``finger`` (None: the whole device is this finger's)."""
+        self.device(finger)  # KeyError with the fingers this hand has
+        return self._fingers[finger][1]
+
     def add_callback(self, fn: Callable[[str, Frame], None]) -> None:
         """Call ``fn(finger, frame)`` for every finger frame, on the devices' reader
         threads (keep it short: a recorder's queue, not processing)."""

@@ -11,6 +11,7 @@ import time
 from typing import Any
 
 from ..argtypes import number
+from ..hand_args import add_hand_args, hand_audio_from_args, hand_spec_from_args
 from . import ExtraMissing
 from .record_cli import Stopper, record_from
 
@@ -24,9 +25,10 @@ def _checked_force_model(path: str, sources: list, model):
     device serial; refused with the reason), as ``stream`` and ``record`` do. A replay's
     frames are taken as they are."""
     from ..device import Fingertip
+    from ..device.finger import FingerView
     from ..models.force_load import check_model, device_serial, force_model_for
 
-    live = [s for s in sources if isinstance(s, Fingertip)]
+    live = [s for s in sources if isinstance(s, (Fingertip, FingerView))]
     if not live:
         return model
     model = force_model_for(live[0], path)
@@ -65,10 +67,15 @@ def make_transport(kind: str, args: argparse.Namespace):
     return LslTransport()
 
 
-def _open_sources(args, stack: contextlib.ExitStack) -> list[Any]:
-    """The fingertips to publish: opened devices, virtual ones on ptys, or a replay."""
+def _open_sources(args, stack: contextlib.ExitStack, hand=None) -> list[Any]:
+    """The fingertips to publish: opened devices, virtual ones on ptys, a replay, or the
+    fingers of a hand (``hand``: its HandSpec)."""
     from ..device import Fingertip
 
+    if hand is not None:
+        from .hand import open_fingers
+
+        return open_fingers(hand, stack)
     if args.replay:
         from ..record.replay import Replay
 
@@ -127,7 +134,15 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..record.recorder import Recorder, RecorderError
     from ..transport import DeviceNotFound, TransportError
     from .feed import Feed
+    from .hand import hand_conflict, pump_hand_audio
 
+    try:
+        hand = hand_spec_from_args(args)
+        if (why := hand_conflict(args, hand)) is not None:
+            raise ValueError(why)
+    except ValueError as e:
+        log.error("%s", e)
+        return 2
     if (args.material_model or args.shake_model) and not (
             args.audio or args.audio_file or args.virtual_audio):
         log.error("--material-model and --shake-model classify the microphone: add --audio, "
@@ -145,11 +160,14 @@ def _cmd_publish(args: argparse.Namespace) -> int:
         try:
             transport = make_transport(args.transport, args)
             stack.callback(transport.close)
-            sources = _open_sources(args, stack)
+            sources = _open_sources(args, stack, hand)
             if args.force_model and args.force_model.lower().endswith(".onnx"):
                 force_model = _checked_force_model(args.force_model, sources, force_model)
-            names = ([sources[0].name] if args.replay else _names(args, len(sources)))
+            names = ([s.name for s in sources] if args.replay or hand else
+                     _names(args, len(sources)))
             audio = _audio_source(args)
+            hand_audio = [] if hand is None else hand_audio_from_args(
+                args, names, sample_rate=args.audio_rate)
             rec = None
             if args.record:
                 rec = Recorder(args.record, overwrite=args.force).start()
@@ -192,6 +210,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             if audio is not None:
                 feed.pump_audio(audio, names[0], also=_audio_consumers(
                     feed, rec, names[0], classifiers, audio.sample_rate))
+            pump_hand_audio(feed, transport, hand_audio, also=_audio_consumers(
+                feed, rec, "", [], args.audio_rate))
             for src, name in zip(sources, names, strict=True):
                 src.start()
                 if not args.replay:  # a replay publishes the events it recorded
@@ -218,8 +238,9 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                 src.stop()
             if not args.replay:
                 _event(feed, rec, name, "stop")
-        if audio is not None:
-            audio.stop()
+        for a in [audio] + [src for src, _ in hand_audio]:
+            if a is not None:
+                a.stop()
         feed.close()
         time.sleep(args.linger)  # reliable messages still in flight reach their readers
         _summary(feed, transport)
@@ -374,6 +395,7 @@ def add_parsers(sub) -> None:
     g.add_argument("--replay", metavar="FILE.mcap", help="publish a recording")
     g.add_argument("--virtual", type=number(int, 1, 16), metavar="N",
                    help="N virtual fingertips (no hardware)")
+    add_hand_args(p, g)
     p.add_argument("--transport", choices=TRANSPORTS, default="dds",
                    help="dds (ROS 2, default), zenoh (ROS 2 with rmw_zenoh) or lsl (Lab "
                         "Streaming Layer)")

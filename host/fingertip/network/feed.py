@@ -15,6 +15,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from typing import Any, Protocol
 
 from ..audio import AudioSource, Chunk
@@ -145,9 +146,26 @@ class Feed:
                    also: Callable[[str, Chunk], Any] | None = None) -> threading.Thread:
         """Read ``source`` on a thread and publish its chunks until :meth:`close` (and hand
         each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``)."""
+        return self.pump_audio_split(source, [name], max_seconds, also, split=False)
+
+    def pump_audio_split(self, source: AudioSource, names: Sequence[str],
+                         max_seconds: float = 0.1,
+                         also: Callable[[str, Chunk], Any] | None = None, *,
+                         split: bool = True) -> threading.Thread:
+        """As :meth:`pump_audio` for a multi-channel source whose channel k is the
+        microphone of fingertip ``names[k]`` (one 4-input interface for a hand): each
+        channel is published on its own fingertip's audio topic."""
+        if split and source.channels < len(names):
+            raise ValueError(f"{source.name} has {source.channels} channel(s) for "
+                             f"{len(names)} fingertips")
         if not source.running and not source.finished:
             source.start()
         max_frames = max(1, int(source.sample_rate * max_seconds))
+
+        def deliver(name: str, chunk: Chunk) -> None:
+            self.audio(name, chunk)
+            if also is not None:
+                also(name, chunk)
 
         def pump() -> None:
             try:
@@ -157,14 +175,17 @@ class Feed:
                         if source.finished:
                             break
                         continue
-                    self.audio(name, chunk)
-                    if also is not None:
-                        also(name, chunk)
+                    if not split:
+                        deliver(names[0], chunk)
+                        continue
+                    for k, name in enumerate(names):
+                        deliver(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
             except Exception as e:  # a broken sound card is an event, not a dead publisher
-                log.error("audio %s: %s", name, e)
-                self.event(name, "audio_error", detail=str(e))
+                log.error("audio %s: %s", ", ".join(names), e)
+                for name in names:
+                    self.event(name, "audio_error", detail=str(e))
 
-        t = threading.Thread(target=pump, daemon=True, name=f"feed-audio-{name}")
+        t = threading.Thread(target=pump, daemon=True, name=f"feed-audio-{names[0]}")
         self._pumps.append(t)
         t.start()
         return t
