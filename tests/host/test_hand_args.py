@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from fingertip.hand_args import (add_hand_args, hand_audio_from_args, hand_spec_from_args,
+from fingertip.hand_args import (AudioInput, add_hand_args, hand_audio_from_args,
+                                 hand_audio_inputs, hand_spec_from_args,
                                  parse_assignments, parse_split)
 
 
@@ -89,3 +90,30 @@ def test_hand_audio_sources(tmp_path):
     a = p.parse_args(["--port", "P", "--hand-split", "4x4", "--hand-audio", str(mono)])
     with pytest.raises(ValueError, match="1 channel"):
         hand_audio_from_args(a, ["f0", "f1", "f2", "f3"])
+
+
+def test_repeatable_port_options_give_one_device_to_split():
+    """check and publish take --port/--serial repeatedly; a split needs exactly one."""
+    p = argparse.ArgumentParser()
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--port", action="append")
+    g.add_argument("--serial", action="append")
+    add_hand_args(p, g)
+    s = hand_spec_from_args(p.parse_args(["--port", "P", "--hand-split", "2x2"]))
+    assert s.port == "P" and s.serial is None and s.fingers == ["f0", "f1"]
+    s = hand_spec_from_args(p.parse_args(["--serial", "SN1", "--hand-split", "2x2"]))
+    assert s.serial == "SN1" and s.port is None
+    with pytest.raises(ValueError, match="give one --port, not 2"):
+        hand_spec_from_args(p.parse_args(["--port", "P", "--port", "Q", "--hand-split", "4x4"]))
+
+
+def test_hand_audio_inputs_name_each_fingers_input():
+    p = parser()
+    a = p.parse_args(["--port", "P", "--hand-split", "2x2", "--finger-names", "i,m",
+                      "--hand-audio", "UMC404HD"])
+    got = hand_audio_inputs(a, ["i", "m"])
+    assert got == {"i": AudioInput("UMC404HD", 0, 2), "m": AudioInput("UMC404HD", 1, 2)}
+    a = p.parse_args(["--hand", "i=A,m=B", "--hand-audio", "m=3,i=card.wav"])
+    got = hand_audio_inputs(a, ["i", "m"])
+    assert got["m"].card == 3 and not got["m"].is_file and got["i"].is_file
+    assert hand_audio_inputs(p.parse_args(["--port", "P"]), ["x"]) == {}
