@@ -41,14 +41,15 @@ ROW_FINGER = (0, 3, 1, 2)
 PITCH = 14.6
 # Bridge supply rail (HX711 VSUP + the AVDD pass transistors): the external input.
 VBR = "VBR"
-# Routing: nets routed before the rest, the supply trees' order, and whether each HX711 has
-# its own DVDD capacitor (found by trying: the router is greedy, the order decides)
+# Routing: nets routed before the rest and the supply trees' order (found by trying: the
+# router is greedy, the order decides). Each HX711 has its own DVDD capacitor (the datasheet's
+# reference design), an 0402 in line with pin 16 (gen_readout.DVDD_CAP_DX)
 FIRST = [VBR, "DOUT4", "DOUT13", "+5V"]
 SUPPLIES = ["VIN_RAW", "VIN_F", "PFET_G", "GND"]
 # GND stitching vias every 2 mm (4 on the readout): the denser rows leave pour fragments
 # that only a nearby via joins to the other side
 STITCH_PITCH = 2.0
-DVDD_CAPS = False
+DVDD_CAPS = True
 
 
 def preamp_ref(f: int, r: str) -> str:

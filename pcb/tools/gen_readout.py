@@ -37,6 +37,7 @@ BX, BY, BW, BH = 100.0, 100.0, 68.58, 53.34
 R0603 = "Resistor_SMD:R_0603_1608Metric"
 C0603 = "Capacitor_SMD:C_0603_1608Metric"
 C0805 = "Capacitor_SMD:C_0805_2012Metric"
+C0402 = "Capacitor_SMD:C_0402_1005Metric"
 YAGEO = "YAGEO"
 SAMSUNG = "Samsung Electro-Mechanics"
 
@@ -140,7 +141,12 @@ def add_channel(sch: Schematic, n: int, x0: float, y0: float, vsup: str = "+5V",
     C(f"C{k + 3}", "100n", f"VBG{n}", "GND", (x0 - 50, y0 + 15))
     C(f"C{k + 4}", "100n", vsup, "GND", (x0 + 20, y0 - 30))
     if dvdd_cap:
-        C(f"C{k + 5}", "100n", dvdd, "GND", (x0 + 30, y0 - 30))
+        # 0402 (not 0603 like the rest): it sits in the gap right of pin 16, between the
+        # chip and the next channel's regulator column, where the routes are dense
+        sch.add(Part(f"C{k + 5}", "Device:C", "100n", C0402, {"1": dvdd, "2": "GND"},
+                     at=(x0 + 30, y0 - 30),
+                     fields={"Manufacturer": SAMSUNG, "MPN": "CL05B104KO5NNNC",
+                             "Description": f"DVDD decoupling of U{n + 1} (datasheet)"}))
     sch.power_flag(f"AVDD{n}", (x0 - 60, y0 - 20))
 
 
@@ -269,6 +275,13 @@ def uno_pads(ox: float, oy: float) -> dict[int, tuple[float, float]]:
     return p
 
 
+# x of the DVDD capacitor's centre from the HX711's centre (0402 pads at +-0.48): its
+# courtyard clears the SOIC's (x + 3.7) and the next channel's SOT-23 (x + 5.87). Found by
+# trying on the hand shield: at 4.6 the courtyards overlap; at 4.75 a +5V track on B.Cu cut
+# off one GND pour fragment (1 unconnected item); at 4.9 a DOUT line did not route.
+DVDD_CAP_DX = 4.7
+
+
 def place_channel(pl: dict, n: int, cx: float, cy: float, dvdd_cap: bool = False) -> None:
     """Footprints of channel n around its HX711 at (cx, cy): the regulator parts in a column
     on the left, the decoupling above, the bridge completion below."""
@@ -281,7 +294,9 @@ def place_channel(pl: dict, n: int, cx: float, cy: float, dvdd_cap: bool = False
     pl[f"C{k + 1}"] = (cx - 2.3, cy - 7.2, 0.0)
     pl[f"C{k + 4}"] = (cx + 1.9, cy - 7.2, 0.0)
     if dvdd_cap:
-        pl[f"C{k + 5}"] = (cx + 5.0, cy - 4.6, 90.0)
+        # in line with pin 16 (DVDD, pad centre at x + 2.475), its DVDD pad 0.39 mm from the
+        # pin: a stub, not a route, and the GND pad gets its own via to the pour
+        pl[f"C{k + 5}"] = (cx + DVDD_CAP_DX, cy - 4.445, 0.0)
     pl[f"R{k + 3}"] = (cx - 3.0, cy + 8.6, 0.0)
     pl[f"R{k + 4}"] = (cx + 0.4, cy + 8.6, 0.0)
     pl[f"R{k + 5}"] = (cx + 3.8, cy + 8.6, 0.0)

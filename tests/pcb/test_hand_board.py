@@ -147,3 +147,38 @@ def test_uno_headers_at_r3_positions():
         return (float(at[1]) - min(edges[0::2]), float(at[2]) - min(edges[1::2])), \
             sorted((str(p[1]), tuple(find(p, "at")[1:3])) for p in find_all(fp, "pad"))
     assert a1(HAND / "hand.kicad_pcb") == a1(PCB / "readout" / "readout.kicad_pcb")
+
+
+def test_each_hx711_has_its_own_dvdd_capacitor_next_to_pin_16(nets):
+    """The datasheet's reference design decouples DVDD (pin 16) at each chip: a 100 nF from
+    +5V to GND per HX711, placed with its +5V pad within 2 mm of the chip's pin 16 (a stub,
+    not a route across the board), its own via to the GND pour."""
+    tree = parse((HAND / "hand.kicad_pcb").read_text(encoding="utf-8"))
+
+    def ref_of(fp) -> str:
+        return next(str(p[2]) for p in find_all(fp, "property") if str(p[1]) == "Reference")
+    fps = {ref_of(fp): fp for fp in find_all(tree, "footprint")}
+
+    def pad_xy(ref: str, num: str) -> tuple[float, float]:
+        import math
+        fp = fps[ref]
+        at = find(fp, "at")
+        x0, y0 = float(at[1]), float(at[2])
+        rot = math.radians(float(at[3]) if len(at) > 3 else 0.0)
+        pad = next(p for p in find_all(fp, "pad") if str(p[1]) == num)
+        px, py = float(find(pad, "at")[1]), float(find(pad, "at")[2])
+        # KiCad rotates counter-clockwise on screen (y down)
+        return (x0 + px * math.cos(rot) + py * math.sin(rot),
+                y0 - px * math.sin(rot) + py * math.cos(rot))
+    chips = hx711s(nets)
+    assert len(chips) == 16
+    for ref in chips:
+        caps = [r for (r, p), n in nets.items() if r.startswith("C") and n == "+5V"
+                and nets.get((r, "2" if p == "1" else "1")) == "GND"]
+        near = []
+        for c in caps:
+            plus = "1" if nets[(c, "1")] == "+5V" else "2"
+            (ax, ay), (bx, by) = pad_xy(c, plus), pad_xy(ref, "16")
+            if ((ax - bx) ** 2 + (ay - by) ** 2) ** 0.5 < 2.0:
+                near.append(c)
+        assert len(near) == 1, (ref, near)
