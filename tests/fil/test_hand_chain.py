@@ -32,6 +32,24 @@ def started_sim(make_sim):
     return sim
 
 
+def four_input_wav(tmp_path, seconds: float, amplitude: int, fs: int = 44100):
+    """One 4-input interface stands in as a 4-channel file: input k is finger k's piezo."""
+    t = np.arange(int(fs * seconds))
+    audio = np.stack([(np.sin(t * 0.01 * (k + 1)) * amplitude * (k + 1)).astype(np.int16)
+                      for k in range(4)], axis=1)
+    wav = tmp_path / "hand4.wav"
+    sf.write(wav, audio, fs, subtype="PCM_16")
+    return wav, audio
+
+
+def by_finger(rec: Recording, fingers) -> dict[str, dict[str, list]]:
+    """A recording's messages: finger -> topic kind -> messages in order."""
+    got: dict[str, dict[str, list]] = {f: {} for f in fingers}
+    for m in rec.records():
+        got[m.name].setdefault(m.kind, []).append(m.msg)
+    return got
+
+
 def cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "fingertip.cli", *args],
                           capture_output=True, text=True, timeout=timeout)
@@ -60,13 +78,7 @@ def test_stream_hand_split_4x4(make_sim):
 
 def test_record_hand_frames_forces_and_four_microphones(make_sim, tmp_path):
     fs = 44100
-    n = int(fs * 2.5)
-    t = np.arange(n)
-    # one 4-input interface stands in as a 4-channel file: input k is finger k's piezo
-    audio = np.stack([(np.sin(t * 0.01 * (k + 1)) * 4000 * (k + 1)).astype(np.int16)
-                      for k in range(4)], axis=1)
-    wav = tmp_path / "hand4.wav"
-    sf.write(wav, audio, fs, subtype="PCM_16")
+    wav, audio = four_input_wav(tmp_path, 2.5, 4000, fs)
     sim = started_sim(make_sim)
     out = tmp_path / "hand.mcap"
     r = cli("record", "--port", sim.pty, "--hand-split", "4x4", "--finger-names",
@@ -77,9 +89,7 @@ def test_record_hand_frames_forces_and_four_microphones(make_sim, tmp_path):
     rec = Recording(out)
     assert rec.complete
     assert rec.devices() == sorted(FINGERS)
-    got: dict[str, dict[str, list]] = {f: {} for f in FINGERS}
-    for m in rec.records():
-        got[m.name].setdefault(m.kind, []).append(m.msg)
+    got = by_finger(rec, FINGERS)
     raw_n = {f: len(got[f]["raw"]) for f in FINGERS}
     assert min(raw_n.values()) >= 20 and len(set(raw_n.values())) == 1, raw_n
     for k, f in enumerate(FINGERS):
@@ -116,11 +126,7 @@ def test_publish_hand_split_4x4_to_a_subscriber_in_another_process(make_sim, tmp
 
     localhost_only.__wrapped__(monkeypatch)
     fs = 44100
-    t = np.arange(int(fs * 4))
-    audio = np.stack([(np.sin(t * 0.01 * (k + 1)) * 3000 * (k + 1)).astype(np.int16)
-                      for k in range(4)], axis=1)
-    wav = tmp_path / "hand4.wav"
-    sf.write(wav, audio, fs, subtype="PCM_16")
+    wav, audio = four_input_wav(tmp_path, 4, 3000, fs)
     sim = started_sim(make_sim)
     remote = tmp_path / "remote.mcap"
     sub = start("record", "--from", "dds", "--name", ",".join(FINGERS), "-o", str(remote))
@@ -140,9 +146,7 @@ def test_publish_hand_split_4x4_to_a_subscriber_in_another_process(make_sim, tmp
     assert sub.returncode == 0, sub_err
     rec = Recording(remote)
     assert rec.devices() == sorted(FINGERS)
-    got: dict[str, dict[str, list]] = {f: {} for f in FINGERS}
-    for m in rec.records():
-        got[m.name].setdefault(m.kind, []).append(m.msg)
+    got = by_finger(rec, FINGERS)
     for k, f in enumerate(FINGERS):
         raw = got[f]["raw"]
         assert len(raw) >= 100, (f, len(raw))   # 3 s at 80 Hz, whatever the VM's load

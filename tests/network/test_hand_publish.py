@@ -12,6 +12,7 @@ import soundfile as sf
 from fingertip.record.reader import Recording
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.pty_device import PtyDevice
+from tests.fil.test_hand_chain import by_finger
 
 from .conftest import start, wait_line
 
@@ -47,9 +48,7 @@ def test_publish_a_hand_of_two_devices_with_a_card_each(tmp_path):
             d.stop()
     rec = Recording(remote)
     assert rec.devices() == sorted(FINGERS)
-    got: dict[str, dict[str, list]] = {f: {} for f in FINGERS}
-    for m in rec.records():
-        got[m.name].setdefault(m.kind, []).append(m.msg)
+    got = by_finger(rec, FINGERS)
     for k, f in enumerate(FINGERS):
         assert len(got[f]["raw"]) >= 60
         assert all(tuple(m.counts) == (k + 1,) * 4 for m in got[f]["raw"])
