@@ -20,3 +20,15 @@ def test_prompt_guide_end_of_input():
 
     assert PromptGuide(ask=eof).press(2, "-X") is False
     assert NoPromptGuide().press(0, "+X") is False and NoPromptGuide().tap(3) is False
+
+
+def test_finger_guide_names_the_finger_in_each_step():
+    from fingertip.check.guide import PromptGuide
+    from fingertip.check.hand import FingerGuide
+
+    asked: list[str] = []
+    g = FingerGuide(PromptGuide(ask=lambda q: asked.append(q) or "", say=lambda s: None), "ring")
+    assert g.interactive and not g.simulated
+    assert g.press(0, "+x")
+    assert "Press the ring fingertip's +x face" in asked[0]
+    assert g.tap(3) and "Tap the nail 3 times" in asked[1]

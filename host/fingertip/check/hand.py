@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import sys
 from collections.abc import Callable
 
 from ..hand_args import AudioInput, HandSpec, hand_audio_inputs
@@ -33,8 +34,8 @@ class FingerGuide:
         return self.guide.press(face, f"{self.finger} fingertip's {label}")
 
     def tap(self, count: int) -> bool:
-        if self.guide.interactive:
-            print(f"Now the {self.finger} fingertip:", flush=True)
+        if self.guide.interactive:  # the prompts go to stderr, as the guide's own
+            print(f"Now the {self.finger} fingertip:", file=sys.stderr, flush=True)
         return self.guide.tap(count)
 
 
