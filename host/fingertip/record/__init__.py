@@ -41,9 +41,14 @@ def __getattr__(name: str) -> Any:
     mod = _WHERE.get(name)
     if mod is None:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{mod}", __name__), name)
-    globals()[name] = value
-    return value
+    module = importlib.import_module(f".{mod}", __name__)
+    # Bind every public name of that module at once: importing a submodule sets the package
+    # attribute of the same name (``export``) to the module, which would otherwise shadow
+    # the function when another name of it (``ExportError``) was asked for first.
+    for public, where in _WHERE.items():
+        if where == mod:
+            globals()[public] = getattr(module, public)
+    return globals()[name]
 
 
 def __dir__() -> list[str]:
