@@ -239,8 +239,12 @@ class SimHand(RobotHand):
         self.world.step_fingers_z(increments_mm)
 
     def read(self, timeout: float = 0.5) -> FrameSet | None:
+        self.world.advance(1.0 / RATE_SPS)
+        return self.frame_set()
+
+    def frame_set(self) -> FrameSet | None:
+        """Every fingertip's frame at the world's present time (None: a silent fault)."""
         w = self.world
-        w.advance(1.0 / RATE_SPS)
         fault = w.fault if w.fault is not None and w.t_s >= w.fault.at_s else None
         if fault is not None and fault.kind == "silent":
             return None
@@ -305,15 +309,17 @@ class SimArm(RobotArm):
 
 
 def make_world(spec: ObjectSpec, seed: int, *, hand_seed: int = 100,
-               fault: Fault | None = None) -> tuple[SimWorld, SimHand, SimArm]:
+               fault: Fault | None = None, hand_factory=SimHand
+               ) -> tuple[SimWorld, SimHand, SimArm]:
     """One trial: the object placed off-centre by a seeded amount (each finger touches it
     after 0.3-1.3 mm of travel), seeded contact angles and heights on the fingertips. The
-    four fingertips are virtual units ``hand_seed`` .. ``hand_seed + 3``."""
+    four fingertips are virtual units ``hand_seed`` .. ``hand_seed + 3``; ``hand_factory``
+    (world, unit seeds) builds the hand (a :class:`SimHand` or a subclass)."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 8]))
     gaps = {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}
     world = SimWorld(SimObject(spec, gaps), rng,
                      angles_deg={f: float(rng.uniform(-20, 20)) for f in FINGERS},
                      heights_mm={f: float(rng.uniform(1.0, 4.0)) for f in FINGERS},
                      fault=fault)
-    hand = SimHand(world, {f: hand_seed + i for i, f in enumerate(FINGERS)})
+    hand = hand_factory(world, {f: hand_seed + i for i, f in enumerate(FINGERS)})
     return world, hand, SimArm(world)
