@@ -129,11 +129,12 @@ class ApproachHand(SimHand):
             if not self._moving():
                 w.advance(end - w.t_s)
                 return
-            h = min(SUBSTEP_S, end - w.t_s)
-            t = w.t_s + h
-            while self._queue and self._queue[0][0] <= t + 1e-12:
+            while self._queue and self._queue[0][0] <= w.t_s + 1e-12:
                 _, f, v = self._queue.pop(0)
                 self._cmd[f] = v
+            h = min(SUBSTEP_S, end - w.t_s)
+            if self._queue and self._queue[0][0] - w.t_s < h:
+                h = self._queue[0][0] - w.t_s       # a command takes effect mid-step
             for f in FINGERS:
                 v0, c = self._vel[f], self._cmd[f]
                 if v0 == c:
