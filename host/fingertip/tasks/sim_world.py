@@ -64,21 +64,31 @@ def _tare(sensor: VirtualStrainSensor, t0: float = 0.0) -> np.ndarray:
 
 def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
+    from .. import __version__
     from ..models.calibrate import fit_calibration, from_arrays
+    from ..models.fit_cache import fit_key
     from ..models.force import ForceModel
+    from .. import models
+    from ..sim import physics
 
-    out = cache_dir() / f"unit{unit_seed}"
+    fit = {"unit_seed": unit_seed, "rate_sps": RATE_SPS, "tare_samples": _TARE_SAMPLES,
+           "models": "mlp16x16", "epochs": 300, "t0_us": 1_000_000}
+    # Keyed by the fit's parameters and by the code that simulates and fits the unit, so a
+    # model fitted by older code is never reused (it was, with the unit's seed alone).
+    key = fit_key(fit, [Path(__file__), Path(physics.__file__).parent,
+                        Path(models.__file__).parent], __version__)
+    out = cache_dir() / f"unit{unit_seed}-{key}"
     onnx = out / "force.onnx"
     with _lock:
         if not onnx.is_file():
             sensor = VirtualStrainSensor(unit_seed, rate_sps=RATE_SPS)
             tare = _tare(sensor)
-            sw = calibration_sweep(sensor, seed=unit_seed, t0_us=1_000_000)
+            sw = calibration_sweep(sensor, seed=unit_seed, t0_us=fit["t0_us"])
             data = from_arrays(sw.counts - tare, sw.fx, sw.fy, angle_deg=sw.angle_deg,
                                height_mm=sw.height_mm, trial=sw.trial)
             cache_dir().mkdir(parents=True, exist_ok=True)
             tmp = Path(tempfile.mkdtemp(prefix=f"unit{unit_seed}-", dir=cache_dir()))
-            fit_calibration(data, tmp, models="mlp16x16", epochs=300, plot=False)
+            fit_calibration(data, tmp, models=fit["models"], epochs=fit["epochs"], plot=False)
             if out.exists():
                 shutil.rmtree(out)
             os.replace(tmp, out)
