@@ -21,7 +21,9 @@ Seeds and ranges (every figure below is from these):
   (:data:`~fingertip.sim.physics.grasp.HELD_OBJECTS`: 50-250 g, friction 0.35-0.9), two
   fingertips (virtual units 100, 101) gripping at 1.15-1.6 x the least force that holds
   (log-uniform), a load of 20-80 % of the object's mass added in 5 ms after 0.3 s, held 1 s;
-  each trial with the fused reflex, the force-only reflex and none.
+  each trial with the fused reflex, the force-only reflex and none (the hold's Coulomb law,
+  safety 1.25, rated load 1.0), and with the fused reflex and the earlier proportional law;
+  ``run.py reflex:slip`` runs this part alone.
 """
 from __future__ import annotations
 
@@ -90,9 +92,12 @@ SLIP_TRIALS = 100
 
 def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
     rows: dict[str, list[dict]] = {"fused": [], "force": [], "none": []}
+    old: list[dict] = []
     for tr in slip_trials(trials, 0):
         for reflex, rs in rows.items():
             rs.append(run_hold_trial(tr, reflex))
+        # The earlier proportional raise on the same holds, side by side.
+        old.append(run_hold_trial(tr, "fused", law="proportional"))
     out: dict[str, float] = {"slip_trials": trials,
                              "slip_slipped_no_reflex": sum(r["slipped"] for r in rows["none"])}
     for reflex, rs in rows.items():
@@ -107,6 +112,9 @@ def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
             out[f"slip_detected{tag}"] = len(lat)
             out[f"slip_false_before_load{tag}"] = sum(r["false_before_load"] for r in rs)
     out["slip_slipped"] = sum(r["slipped"] for r in rows["fused"])
+    out["slip_hold_success_proportional"] = round(float(np.mean([r["held"] for r in old])), 3)
+    out["slip_mean_grip_n_proportional"] = round(
+        float(np.mean([r["mean_grip_n"] for r in old])), 3)
     return out
 
 
@@ -156,8 +164,13 @@ def latency_figures(sim_seconds: float = 20.0) -> dict[str, float]:
     return out
 
 
+PARTS = {"contact": contact_figures, "slip": slip_figures, "pinch": pinch_figures,
+         "latency": latency_figures}
+"""Parts that ``run.py reflex:PART`` runs alone (the whole bench takes about 15 min)."""
+
+
 def run() -> dict[str, float]:
-    return {**contact_figures(), **slip_figures(), **pinch_figures(), **latency_figures()}
+    return {k: v for part in PARTS.values() for k, v in part().items()}
 
 
 def tables(figures: dict) -> dict[str, str]:
@@ -188,6 +201,11 @@ DESCRIPTION = {
     "slip_hold_success": ("share of the 100 holds whose object stayed in the hand (slid < 10 "
                           "mm) after the load, with the fused slip reflex", (">=", 0.95)),
     "slip_hold_success_force_only": ("the same, force-ratio reflex", None),
+    "slip_hold_success_proportional": ("the same holds, fused reflex with the earlier "
+                                       "proportional raise (+50 %, then the ratio rule)",
+                                       None),
+    "slip_mean_grip_n_proportional": ("mean normal force per finger, that earlier law",
+                                      None),
     "slip_hold_success_no_reflex": ("the same, keeping the initial grip force", None),
     "slip_mean_grip_n": ("mean normal force per finger over the holds, fused reflex", None),
     "slip_mean_grip_n_force_only": ("the same, force-only reflex", None),
