@@ -10,18 +10,24 @@ Seeds and ranges (every figure below is from these):
 - false contacts: 60 sessions of 10 s (seeds 1000..1059) of the hand moving without touching
   (random joint moves up to 3 rad/s), speech and room noise as above; taps: the same with
   knocks on the robot at 6 a minute (seeds 2000..2029), reported per tap;
-- pinch speed: the pinch trials' placements (seeds 0..24, ``make_world``), tofu and chip,
-  closing speeds 0.5-32 mm/s, per detector (:mod:`fingertip.sim.pinch_speed`);
+- pinch speed: the pinch recipe (``tasks.pinch.pinch`` with ``approach_speed_mm_s``) on the
+  pinch trials' worlds (seeds 0..24, ``make_world``: placements 0.3-1.3 mm plus 0.15 s of
+  travel, contact heights 1-4 mm, angles +-20 deg; piezo audio seeded by the trial), tofu
+  and chip at the paper's 0.5 / 0.1 N, closing speeds 0.5-32 mm/s, force-only 15 Hz,
+  force-only 80 Hz and fused contact (:mod:`fingertip.sim.pinch_speed`), two processes;
 - latency budget: the firmware ELF at 115200, 500000 and 1000000 baud, 4 and 16 channels,
   20 simulated seconds each (``make -C firmware bauds``);
 - slip: 100 holds (seeds 0..99, ``slip_trials(100, 0)``) of five objects in turn
   (:data:`~fingertip.sim.physics.grasp.HELD_OBJECTS`: 50-250 g, friction 0.35-0.9), two
   fingertips (virtual units 100, 101) gripping at 1.15-1.6 x the least force that holds
   (log-uniform), a load of 20-80 % of the object's mass added in 5 ms after 0.3 s, held 1 s;
-  each trial with the fused reflex, the force-only reflex and none.
+  each trial with the fused reflex, the force-only reflex and none (the hold's Coulomb law,
+  safety 1.25, rated load 1.0), and with the fused reflex and the earlier proportional law;
+  ``run.py reflex:slip`` runs this part alone.
 """
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -86,9 +92,12 @@ SLIP_TRIALS = 100
 
 def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
     rows: dict[str, list[dict]] = {"fused": [], "force": [], "none": []}
+    old: list[dict] = []
     for tr in slip_trials(trials, 0):
         for reflex, rs in rows.items():
             rs.append(run_hold_trial(tr, reflex))
+        # The earlier proportional raise on the same holds, side by side.
+        old.append(run_hold_trial(tr, "fused", law="proportional"))
     out: dict[str, float] = {"slip_trials": trials,
                              "slip_slipped_no_reflex": sum(r["slipped"] for r in rows["none"])}
     for reflex, rs in rows.items():
@@ -103,6 +112,9 @@ def slip_figures(trials: int = SLIP_TRIALS) -> dict[str, float]:
             out[f"slip_detected{tag}"] = len(lat)
             out[f"slip_false_before_load{tag}"] = sum(r["false_before_load"] for r in rs)
     out["slip_slipped"] = sum(r["slipped"] for r in rows["fused"])
+    out["slip_hold_success_proportional"] = round(float(np.mean([r["held"] for r in old])), 3)
+    out["slip_mean_grip_n_proportional"] = round(
+        float(np.mean([r["mean_grip_n"] for r in old])), 3)
     return out
 
 
@@ -111,16 +123,24 @@ PINCH_PNG = ROOT / "docs" / "img" / "pinch_speed.png"
 _tables: dict[str, str] = {}
 
 
+PINCH_WORKERS = 2
+
+
 def pinch_figures(trials: int = 25, png: Path | None = PINCH_PNG) -> dict[str, float]:
-    result = ps.sweep(PINCH_SPEEDS, trials, 0)
+    t0 = time.monotonic()
+    result = ps.sweep(PINCH_SPEEDS, trials, 0, workers=PINCH_WORKERS)
+    seconds = time.monotonic() - t0
     if png is not None:
         ps.plot(result, png, trials)
-    _tables["Reflexes: pinch closing speed against success (simulated, seeds 0-24)"] = \
-        ps.table(result, trials) + f"\nCurve: {png.relative_to(ROOT) if png else '-'}\n"
+    title = ("Reflexes: the pinch recipe's closing speed against success (simulated hand, "
+             "seeds 0-24)")
+    curve = png.relative_to(ROOT) if png else "-"
+    _tables[title] = ps.table(result, trials) + f"\nCurve: {curve}\n"
     best = {m: ps.max_safe_speed(c, trials) for m, c in result.items()}
     out = {f"pinch_max_speed_mm_s_{m}": b for m, b in best.items()}
     out["pinch_max_speed_ratio"] = round(best["fused"] / best["force15"], 3) \
         if best["force15"] else float("nan")
+    out["pinch_speed_sweep_s"] = round(seconds, 1)
     return out
 
 
@@ -144,8 +164,13 @@ def latency_figures(sim_seconds: float = 20.0) -> dict[str, float]:
     return out
 
 
+PARTS = {"contact": contact_figures, "slip": slip_figures, "pinch": pinch_figures,
+         "latency": latency_figures}
+"""Parts that ``run.py reflex:PART`` runs alone (the whole bench takes about 15 min)."""
+
+
 def run() -> dict[str, float]:
-    return {**contact_figures(), **slip_figures(), **pinch_figures(), **latency_figures()}
+    return {k: v for part in PARTS.values() for k, v in part().items()}
 
 
 def tables(figures: dict) -> dict[str, str]:
@@ -162,9 +187,11 @@ DESCRIPTION = {
     "pinch_max_speed_ratio": ("highest closing speed keeping 25/25 tofu and 25/25 chips intact "
                               "with fused contact, over the paper-style force-only 15 Hz one",
                               (">=", 3.0)),
-    "pinch_max_speed_mm_s_fused": ("highest 25/25-safe closing speed, fused contact (grid "
-                                   "0.5-32 mm/s; seeds 0-24; command 2 ms and braking 5000 "
-                                   "mm/s^2 assumed)", None),
+    "pinch_max_speed_mm_s_fused": ("highest 25/25-safe closing speed, fused contact: the "
+                                   "pinch recipe on the simulated hand (grid 0.5-32 mm/s; "
+                                   "seeds 0-24; command 2 ms and braking 5000 mm/s^2 "
+                                   "assumed)", None),
+    "pinch_speed_sweep_s": ("wall-clock time of the whole speed sweep (two processes)", None),
     "pinch_max_speed_mm_s_force80": ("the same, force-only 80 Hz", None),
     "pinch_max_speed_mm_s_force15": ("the same, force-only 15 Hz (the paper's rate)", None),
     "slip_latency_p50_ms": ("true gross-slip onset to the first slip_onset (fused: piezo "
@@ -174,6 +201,11 @@ DESCRIPTION = {
     "slip_hold_success": ("share of the 100 holds whose object stayed in the hand (slid < 10 "
                           "mm) after the load, with the fused slip reflex", (">=", 0.95)),
     "slip_hold_success_force_only": ("the same, force-ratio reflex", None),
+    "slip_hold_success_proportional": ("the same holds, fused reflex with the earlier "
+                                       "proportional raise (+50 %, then the ratio rule)",
+                                       None),
+    "slip_mean_grip_n_proportional": ("mean normal force per finger, that earlier law",
+                                      None),
     "slip_hold_success_no_reflex": ("the same, keeping the initial grip force", None),
     "slip_mean_grip_n": ("mean normal force per finger over the holds, fused reflex", None),
     "slip_mean_grip_n_force_only": ("the same, force-only reflex", None),

@@ -34,9 +34,11 @@ OPS = {">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b,
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("names", nargs="*", default=BENCHES, help=f"subset of {BENCHES}")
+    ap.add_argument("names", nargs="*", default=BENCHES,
+                    help=f"subset of {BENCHES}; NAME:PART runs one part of a bench that has "
+                         "PARTS (e.g. reflex:slip)")
     args = ap.parse_args()
-    unknown = set(args.names) - set(BENCHES) - set(OPTIONAL)
+    unknown = {n.partition(":")[0] for n in args.names} - set(BENCHES) - set(OPTIONAL)
     if unknown:
         ap.error(f"unknown benchmarks: {sorted(unknown)}")
     results = json.loads(JSON_OUT.read_text()) if JSON_OUT.exists() else {}
@@ -45,10 +47,14 @@ def main() -> int:
     machine = describe()
     missed = []
     tables = meta.pop("_tables", {})
-    for name in args.names:
+    for arg in args.names:
+        name, _, part = arg.partition(":")
         mod = importlib.import_module(f"tests.bench.bench_{name}")
-        print(f"bench {name} ...", flush=True)
-        figures = mod.run()
+        parts = getattr(mod, "PARTS", {})
+        if part and part not in parts:
+            ap.error(f"bench {name} has no part {part!r} (parts: {sorted(parts)})")
+        print(f"bench {arg} ...", flush=True)
+        figures = parts[part]() if part else mod.run()
         if hasattr(mod, "tables"):  # markdown tables made from this run's figures
             tables.update(mod.tables(figures))
         for key, value in figures.items():

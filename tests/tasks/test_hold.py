@@ -8,8 +8,8 @@ from fingertip.events.slip import SlipDetector
 from fingertip.sim.physics import AudioChain, Excitation
 from fingertip.sim.physics.grasp import G, HELD_OBJECTS, GraspSlip, HeldObject
 from fingertip.sim.physics.vibration import place
-from fingertip.tasks.hold import HoldConfig, hold, split_force
-from fingertip.tasks.sim_slip import SlipHand, SlipTrial, run_hold_trial
+from fingertip.tasks.hold import CoulombLaw, HoldConfig, hold, split_force
+from fingertip.tasks.sim_slip import SlipHand, SlipTrial, run_hold_trial, slip_trials
 
 FS = 44100
 BLOCK = FS // 80
@@ -144,3 +144,41 @@ def test_hold_refuses_unknown_reflex_and_stops_on_a_silent_sensor(sudden_load):
     res = hold(Silent(sudden_load), HoldConfig(normal_deg=dict(hand.angles), reflex="none"),
                lambda: True)
     assert not res.ok and res.detail == "no frames"
+
+
+def test_coulomb_law_needs_what_friction_needs_for_the_rated_load():
+    """Two fingers holding 0.5 N of load at 0.8 N each: the onset frame's pooled ratio is mu
+    (the next frames' lower ratios, the grip already rising, do not lower it)."""
+    law = CoulombLaw(2, safety=1.25, rated_load=1.0, mu_frames=2, smooth=1.0)
+    stick = ({"f0": 0.8, "f1": 0.8}, {"f0": 0.3, "f1": -0.2})
+    law.frame(*stick, slip=False)
+    assert law.need_n is None and law.load_n == pytest.approx(0.5)
+    law.frame({"f0": 0.6, "f1": 0.6}, {"f0": 0.3, "f1": -0.24}, slip=True)   # ratio 0.45
+    assert law.mu_est == pytest.approx(0.45)
+    assert law.need_n == pytest.approx(1.25 * 0.5 * 2 / (2 * 0.45))
+    law.frame({"f0": 1.2, "f1": 1.2}, {"f0": 0.3, "f1": -0.3}, slip=False)    # ratio 0.25
+    assert law.mu_est == pytest.approx(0.45) and law.load_n == pytest.approx(0.5)
+    law.frame({"f0": 1.4, "f1": 1.4}, {"f0": 0.3, "f1": -0.3}, slip=True)     # slips again
+    assert law.slips == 2 and law.need_n == pytest.approx(1.25 * 0.5 * 3 / (2 * 0.45))
+
+
+def test_coulomb_law_keeps_a_cup_the_proportional_raise_drops():
+    """Bench seed 0: a plastic cup at 1.21 x its least grip, +74 % of its mass in 5 ms; the
+    proportional raise (+50 %) stops short of what kinetic friction needs."""
+    trial = slip_trials(1, 0)[0]
+    assert trial.obj.name == "plastic_cup"
+    old = run_hold_trial(trial, "fused", law="proportional")
+    new = run_hold_trial(trial, "fused", law="coulomb")
+    assert old["slipped"] and not old["held"]
+    assert new["held"] and new["slip_mm"] < 10
+    # The force kinetic friction needs to stop the slide (mu_k sum N > W) was reached.
+    w = (trial.obj.mass_kg + trial.added_kg) * G
+    assert new["peak_grip_n"] > w / (2 * trial.obj.friction * trial.obj.kinetic_ratio)
+
+
+@pytest.mark.parametrize("bad", [{"law": "magic"}, {"safety": 0.9}, {"rated_load": -1.0},
+                                 {"mu_frames": -1}])
+def test_hold_refuses_a_bad_law(sudden_load, bad):
+    hand = SlipHand(sudden_load)
+    with pytest.raises(ValueError):
+        hold(hand, HoldConfig(normal_deg=dict(hand.angles), **bad), lambda: False)

@@ -1,39 +1,41 @@
-"""How fast can the pinch close? Closing speed against success, per contact detector.
+"""How fast can the pinch close? The pinch recipe itself, closing the simulated hand at each
+speed, per contact detector.
 
-The pinch closes in two phases: each finger approaches at the closing speed v until its
-contact detector reports contact, then stops (``COMMAND_S`` for the command to reach the
-finger's motor, then braking at ``BRAKE_MM_S2``) and regulates to ``F_th`` with the paper's
-fine steps (:data:`fingertip.tasks.experiment.PINCH_OBJECTS`: a step per force frame). The
-object is the pinch trials' (:func:`fingertip.tasks.sim_world.make_world` placement: each
-finger touches after 0.3-1.3 mm, on the skin's side 1-4 mm below the nail); a finger whose
-true force ever exceeds the object's crush force breaks it.
+Each trial is :func:`fingertip.tasks.pinch.pinch` (the recipe ``fingertip experiment
+pinch`` runs) with ``approach_speed_mm_s`` set: every finger closes at that speed until its
+contact detector reports a touch, stops, and the recipe regulates to the paper's pinch force
+(0.5 N tofu, 0.1 N chip: ``PINCH_OBJECTS``) with its fine steps, then lifts 20 mm. The hand
+is :class:`.approach_hand.ApproachHand` on the pinch trials' world
+(:func:`~fingertip.tasks.sim_world.make_world`, seed = trial): force frames at 15 Hz (the
+paper's controller) or 80 Hz, the piezos for the fused detector, and the world's crushing.
+The contact source is :class:`~fingertip.events.contact_set.ContactSet`: force frames alone
+(``force15``, ``force80``) or fused piezo + force at 80 Hz (``fused``).
 
-The detection time of each finger comes from the contact detectors run on its own
-simulated signals (:mod:`.physics.touch`: the make transient, the finger's motor noise,
-speech at 65 dB, the force frames through a virtual strain unit), exactly as in the
-latency evaluation (:mod:`.reflex_eval`); until the detection the finger moves at v, so the
-force ramps at k v. Peak force = k x (v x (detection - contact + COMMAND_S) + v^2 / (2
-BRAKE_MM_S2)), or the regulation's F_th plus one fine step if that is higher.
+Each finger starts ``PRE_S`` of travel (at the trial's speed) farther than the placement's
+0.3-1.3 mm, so it is at speed, and past the 80 ms in which the fused detector ignores the
+piezo after a move starts (its own motor spinning up), before it touches. Success is the
+experiment's: held, lifted 20 mm, unbroken.
 """
 from __future__ import annotations
 
-import math
+import logging
+from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
-import numpy as np
-
+from ..events.contact_set import ContactSet
 from ..tasks.experiment import PINCH_OBJECTS
-from ..tasks.sim_world import FINGERS
-from .physics.touch import Session, Touch
-from .reflex_eval import run_session
+from ..tasks.pinch import PinchConfig, pinch
+from ..tasks.sim_world import FINGERS, make_world
+from .approach_hand import ApproachHand
 
-COMMAND_S = 0.002
-"""From the host's decision to the finger's motor (a serial command; assumed)."""
-BRAKE_MM_S2 = 5000.0
-"""Braking of a small geared finger (assumed: 80 mm/s stops within 16 ms)."""
-F_TH_N = {"tofu": 0.5, "chip": 0.1}
-"""The pinch force (the paper's): the demonstrations estimate about this."""
+log = logging.getLogger(__name__)
+
 MODES = {"force15": ("force", 15.0), "force80": ("force", 80.0), "fused": ("fused", 80.0)}
+PRE_S = 0.15
+"""Extra approach before the surface, in seconds of travel at the trial's speed."""
+OBJECTS = ("tofu", "chip")
 
 
 @dataclass
@@ -42,74 +44,90 @@ class PinchSpeedTrial:
     speed_mm_s: float
     seed: int
     mode: str
-    peaks_n: list[float]
-    close_s: float
-    """Time from the start of the approach to every finger at F_th."""
-
-    @property
-    def success(self) -> bool:
-        return max(self.peaks_n) < PINCH_OBJECTS[self.obj][0].crush_n
-
-
-def placement(seed: int) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
-    """Gaps, angles, heights as :func:`~fingertip.tasks.sim_world.make_world` draws them."""
-    rng = np.random.default_rng(np.random.SeedSequence([seed, 8]))
-    gaps = {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}
-    angles = {f: float(rng.uniform(-20, 20)) for f in FINGERS}
-    heights = {f: float(rng.uniform(1.0, 4.0)) for f in FINGERS}
-    return gaps, angles, heights
+    success: bool
+    outcome: str
+    broken: bool
+    peak_true_n: float
+    detect_ms: list[float]
+    """Per finger that touched before its stop: from the true touch to the recipe's stop
+    command (simulated time: detection and the recipe's reaction)."""
+    sources: list[str]
 
 
-def pinch_trial(obj: str, speed_mm_s: float, seed: int, mode: str,
-                wall_clock: bool = False) -> PinchSpeedTrial:
-    spec, _, step_mm = PINCH_OBJECTS[obj]
-    k = spec.stiffness_n_per_mm
-    f_th = F_TH_N[obj]
+def pinch_trial(obj: str, speed_mm_s: float, seed: int, mode: str) -> PinchSpeedTrial:
+    """One pinch of ``obj`` (placement ``seed``) approaching at ``speed_mm_s``."""
+    if obj not in PINCH_OBJECTS:
+        raise ValueError(f"object must be one of {sorted(PINCH_OBJECTS)}, not {obj!r}")
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {sorted(MODES)}, not {mode!r}")
+    spec, f_th, step = PINCH_OBJECTS[obj]
     kind, rate = MODES[mode]
-    gaps, angles, heights = placement(seed)
-    phase = np.random.default_rng(np.random.SeedSequence([seed, 0x9A5E])).uniform(0, 1, 4)
-    peaks, ends = [], []
-    for i, f in enumerate(FINGERS):
-        # The approach starts 0.25 s before contact; the force frames' phase at the
-        # contact is the trial's (the fingers touch at different moments).
-        tc = 0.25 + float(phase[i]) / 15.0
-        # The touch's force ramps at k v until well past any detection; its release lies
-        # beyond the session, so only the make matters.
-        touch = Touch(tc, speed_mm_s, k, 10.0 * spec.crush_n + 1.0, hold_s=10.0,
-                      height_mm=heights[f], angle_deg=angles[f])
-        horizon = min(1.5, 0.15 + 0.1 / (k * speed_mm_s))   # past a force-only detection
-        session = Session(tc + horizon, [touch], seed * 16 + i, speech_db=65.0)
-        res = run_session(session, kind, rate, wall_clock=wall_clock)
-        late = res.latency_s[0] if res.latency_s else horizon
-        travel = speed_mm_s * (late + COMMAND_S) + speed_mm_s ** 2 / (2 * BRAKE_MM_S2)
-        peak = k * travel
-        # Regulation to F_th with the fine step, one step per force frame (at ``rate``).
-        steps = max(0, math.ceil((f_th - peak) / (k * step_mm)))
-        if peak < f_th:
-            peak = max(peak, f_th) + k * step_mm * (1 if steps else 0)
-        peaks.append(peak)
-        ends.append(gaps[f] / speed_mm_s + late + COMMAND_S + steps / rate)
-    return PinchSpeedTrial(obj, speed_mm_s, seed, mode, peaks, max(ends))
+    world, hand, arm = make_world(
+        spec, seed, hand_factory=partial(ApproachHand, rate_hz=rate, seed=seed))
+    for f in FINGERS:
+        world.obj.gaps_mm[f] += speed_mm_s * PRE_S
+    contact = ContactSet(hand.fingers, kind, fs=hand.fs if kind == "fused" else None)
+    cfg = PinchConfig(f_th, step_mm=step, approach_speed_mm_s=speed_mm_s)
+    r = pinch(hand, arm, cfg, contact)
+    broken = world.obj.broken
+    ok = r.ok and not broken and world.obj.lifted_mm >= cfg.lift_mm - 1e-6
+    outcome = "broken" if broken else r.outcome.value if not r.ok else \
+        "ok" if ok else "dropped"
+    det, src = [], []
+    for f, ev in r.contacts.items():
+        if f in hand.contact_s and f in hand.stop_s and hand.stop_s[f] >= hand.contact_s[f]:
+            det.append((hand.stop_s[f] - hand.contact_s[f]) * 1e3)
+        src.append(ev.source)
+    return PinchSpeedTrial(obj, speed_mm_s, seed, mode, ok, outcome, broken,
+                           world.obj.peak_force_n, det, src)
 
 
-def sweep(speeds: list[float], trials: int = 25, seed: int = 0,
-          modes: tuple[str, ...] = tuple(MODES)) -> dict[str, dict[float, dict[str, int]]]:
-    """mode -> speed -> object -> successes of ``trials`` (seeds ``seed``..). A mode's
-    sweep stops after the first speed at which some object never survives (faster only
-    breaks more: the overshoot grows with the speed)."""
-    out: dict[str, dict[float, dict[str, int]]] = {}
-    for mode in modes:
-        out[mode] = {}
-        for v in sorted(speeds):
-            out[mode][v] = {o: sum(pinch_trial(o, v, s, mode).success
-                                   for s in range(seed, seed + trials))
-                            for o in F_TH_N}
-            if min(out[mode][v].values()) == 0:
-                break
+Curve = dict[float, dict[str, int]]
+
+
+def _point(args: tuple[str, float, int, int]) -> tuple[str, float, dict[str, int]]:
+    mode, v, seed, trials = args
+    return mode, v, {o: sum(pinch_trial(o, v, s, mode).success
+                            for s in range(seed, seed + trials)) for o in OBJECTS}
+
+
+def sweep(speeds: Iterable[float], trials: int = 25, seed: int = 0,
+          modes: Iterable[str] = tuple(MODES), workers: int = 1,
+          progress: Callable[[str], None] | None = None) -> dict[str, Curve]:
+    """mode -> speed -> object -> successes of ``trials`` (seeds ``seed``..). Each mode
+    runs its speeds in increasing order, ``workers`` at a time, and stops after the first
+    batch in which some object never survived (faster only overshoots more)."""
+    speeds = sorted(float(v) for v in speeds)
+    if not speeds or speeds[0] <= 0:
+        raise ValueError("speeds must be > 0")
+    out: dict[str, Curve] = {}
+    with ProcessPoolExecutor(workers) if workers > 1 else _Serial() as pool:
+        for mode in modes:
+            out[mode] = {}
+            for a in range(0, len(speeds), workers):
+                batch = [(mode, v, seed, trials) for v in speeds[a:a + workers]]
+                for m, v, counts in pool.map(_point, batch):
+                    out[m][v] = counts
+                    if progress is not None:
+                        progress(f"{m} {v:g} mm/s: {counts}")
+                if any(min(out[mode][v].values()) == 0 for v in speeds[a:a + workers]):
+                    break
     return out
 
 
-def max_safe_speed(curve: dict[float, dict[str, int]], trials: int = 25) -> float:
+class _Serial:
+    def __enter__(self) -> _Serial:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    @staticmethod
+    def map(fn, items):
+        return map(fn, items)
+
+
+def max_safe_speed(curve: Curve, trials: int = 25) -> float:
     """Highest speed at which every object succeeded in every trial, with every slower
     speed also safe (0 if none)."""
     best = 0.0
@@ -121,7 +139,7 @@ def max_safe_speed(curve: dict[float, dict[str, int]], trials: int = 25) -> floa
     return best
 
 
-def plot(result: dict[str, dict[float, dict[str, int]]], path, trials: int = 25):
+def plot(result: dict[str, Curve], path, trials: int = 25):
     """PNG of success (both objects, of 2 x trials) against closing speed, per detector."""
     import matplotlib
 
@@ -137,7 +155,7 @@ def plot(result: dict[str, dict[float, dict[str, int]]], path, trials: int = 25)
     ax.axhline(2 * trials, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("closing speed before contact (mm/s)")
     ax.set_ylabel(f"pinches intact and held (of {2 * trials})")
-    ax.set_title("Simulated pinch: tofu + potato chip, 25 trials each")
+    ax.set_title(f"Pinch recipe on the simulated hand: tofu + chip, {trials} trials each")
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=100)
@@ -145,7 +163,7 @@ def plot(result: dict[str, dict[float, dict[str, int]]], path, trials: int = 25)
     return path
 
 
-def table(result: dict[str, dict[float, dict[str, int]]], trials: int = 25) -> str:
+def table(result: dict[str, Curve], trials: int = 25) -> str:
     speeds = sorted({v for curve in result.values() for v in curve})
     lines = ["| closing speed (mm/s) | " + " | ".join(result) + " |",
              "|---|" + "---|" * len(result)]

@@ -50,6 +50,9 @@ class PinchConfig:
     lift_speed_mm_s: float = 20.0
     hold_band: float = 0.8
     """While holding, re-close a finger whose force falls below ``hold_band * f_th_n``."""
+    approach_speed_mm_s: float | None = None
+    """Close at this speed until each finger's contact detector fires, then regulate with
+    the steps (:mod:`.approach`); None: the paper's step per frame from the start."""
 
     @property
     def max_force(self) -> float:
@@ -66,6 +69,8 @@ class PinchResult:
     peak_n: float = 0.0
     latencies_ms: list[float] = field(default_factory=list)
     """Per frame: from the frame set's arrival to the command sent for it."""
+    contacts: dict[str, object] = field(default_factory=dict)
+    """With an approach at speed: each finger's contact event that stopped it."""
 
     @property
     def ok(self) -> bool:
@@ -128,6 +133,7 @@ class Grip:
         self.result = PinchResult(PinchOutcome.HELD)
         self._bufs: dict[str, deque] = {f: deque(maxlen=cfg.window) for f in self.fingers}
         self._baseline = dict.fromkeys(self.fingers, (0.0, 0.0))
+        self.zeroed = False
         self._t0: float | None = None
         self._arrival = 0.0
         self.now = 0.0
@@ -192,8 +198,39 @@ class Grip:
             self.hand.step(cmd)
         self.result.latencies_ms.append((time.monotonic() - self._arrival) * 1e3)
 
-    def close(self) -> bool:
-        """Zero the estimates (fingers open), then close until every finger reaches F_th."""
+    @property
+    def started_at(self) -> float | None:
+        """Time (the frames' clock) of the grip's first frame; None before it."""
+        return self._t0
+
+    def abort(self, outcome: PinchOutcome, detail: str) -> bool:
+        """Stop the arm, open the fingers, record why; returns False."""
+        return self._abort(outcome, detail)
+
+    def forces(self, frames: FrameSet) -> dict[str, float] | None:
+        """Each finger's baseline-corrected force magnitude in ``frames`` (unfiltered); None
+        after an abort (a sensor fault, or a force above ``max_force``)."""
+        self.result.frames += 1
+        self.now = max(fr.host_time for fr in frames.values())
+        self._t0 = self.now if self._t0 is None else self._t0
+        try:
+            vecs = force_vectors(self.hand, frames, self.fingers)
+        except SensorFault as e:
+            self._abort(PinchOutcome.SENSOR_FAULT, str(e))
+            return None
+        out = {}
+        for f, (fx, fy) in vecs.items():
+            bx, by = self._baseline[f]
+            out[f] = math.hypot(fx - bx, fy - by)
+        peak = max(out.values())
+        self.result.peak_n = max(self.result.peak_n, peak)
+        if peak > self.cfg.max_force:
+            self._abort(PinchOutcome.MAX_FORCE, f"{peak:.3f} N > {self.cfg.max_force:.3f} N")
+            return None
+        return out
+
+    def zero(self) -> bool:
+        """Zero each finger's force estimate on ``baseline_frames`` frames (fingers open)."""
         rows: list[dict[str, tuple[float, float]]] = []
         while len(rows) < self.cfg.baseline_frames:
             got = self._read()
@@ -202,6 +239,14 @@ class Grip:
             rows.append(got[0])
         self._baseline = {f: (float(np.mean([r[f][0] for r in rows])),
                               float(np.mean([r[f][1] for r in rows]))) for f in self.fingers}
+        self.zeroed = True
+        return True
+
+    def close(self) -> bool:
+        """Zero the estimates (fingers open) unless :meth:`zero` did, then close until
+        every finger reaches F_th."""
+        if not self.zeroed and not self.zero():
+            return False
         while True:
             got = self._next("close")
             if got is None:

@@ -1,10 +1,23 @@
 """Hold an object and keep it: raise the grip force when it starts to slip.
 
 :func:`hold` keeps each finger's normal force at a target (closing a finger whose force is
-below it, proportionally, at most ``max_step_mm`` per frame) and, on each ``slip_onset`` of a
-:class:`~fingertip.events.slip.SlipDetector` (piezo bursts and the force ratio, or the force
-ratio alone), raises every target by ``raise_fraction`` (at most ``max_force_n``). Without a
-reflex (``reflex="none"``) it only keeps the initial force, as the paper's hold does.
+below it, proportionally, at most ``max_step_mm`` per frame: the rate the hand allows) and
+reacts to each ``slip_onset`` of a :class:`~fingertip.events.slip.SlipDetector` (piezo bursts
+and the force ratio, or the force ratio alone). Without a reflex (``reflex="none"``) it only
+keeps the initial force, as the paper's hold does. Two laws (``law``):
+
+- ``"coulomb"`` (default): the grip Coulomb friction needs for the load the hold is rated
+  for. While the object sticks, the fingers' tangential forces add up to the load it hangs
+  with (W0, smoothed); at a slip onset the contact is at its friction limit, so the pooled
+  ratio sum |F_t| / sum F_n there (the largest over the onset frame and the next
+  ``mu_frames``) estimates mu. A sudden load is not seen in F_t while the object slides
+  (kinetic friction caps it at mu_k F_n), so the law does not wait for it: each finger's
+  target becomes ``safety`` x W_design / (fingers x mu_est), W_design = W0 x (1 + k x
+  ``rated_load``) after the k-th slip onset (each further slip shows the load exceeds the
+  last design), reached at the hand's full rate; a target never falls below the force held.
+- ``"proportional"`` (the earlier law, kept for comparison): every target rises by
+  ``raise_fraction`` at a slip onset, then each finger is kept at or above its tangential
+  force / (``ratio_margin`` x the largest ratio seen since the first slip).
 
 Each fingertip's force estimate is split into its normal part (along ``normal_deg``, the
 direction in the fingertip's frame in which this finger presses: the hand's geometry) and
@@ -31,8 +44,19 @@ class HoldConfig:
     """Per finger: the direction of its normal force in its fingertip's (fx, fy) frame."""
     reflex: str = "fused"
     """fused (piezo + force ratio), force (force ratio only) or none."""
+    law: str = "coulomb"
+    """coulomb or proportional (see the module text)."""
+    safety: float = 1.25
+    """Coulomb law: the margin on friction (mu scatters between surfaces and with the force
+    estimates' error), as in a gripper's design rule F_n >= S x F_t / mu."""
+    rated_load: float = 1.0
+    """Coulomb law: the added load, as a fraction of the load held before the slip, that one
+    reflex is designed to carry (1: the weight may double). A user hanging more sets more."""
+    mu_frames: int = 2
+    """Coulomb law: frames after the onset frame over which the friction ratio is read."""
     raise_fraction: float = 0.5
-    """At a slip onset every target rises at once by this fraction (the force ratio at that
+    """Proportional law: at a slip onset every target rises at once by this fraction (the
+    force ratio at that
     moment is not yet known) ..."""
     ratio_margin: float = 0.7
     """... and from then on each finger's normal force is kept at or above its tangential
@@ -77,10 +101,52 @@ def split_force(fx: float, fy: float, normal_deg: float) -> tuple[float, float]:
     return fx * math.cos(a) + fy * math.sin(a), -fx * math.sin(a) + fy * math.cos(a)
 
 
+class CoulombLaw:
+    """The Coulomb law's state over frames (see the module text): the load held while the
+    object sticks, the friction ratio at slip onsets and the per-finger force needed."""
+
+    def __init__(self, fingers: int, safety: float, rated_load: float, mu_frames: int,
+                 smooth: float) -> None:
+        self.fingers, self.safety, self.rated_load = fingers, safety, rated_load
+        self.mu_frames, self.smooth = mu_frames, smooth
+        self.load_n: float | None = None
+        """W0: sum of |F_t| while sticking (smoothed), frozen at the first slip."""
+        self.mu_est: float | None = None
+        self.slips = 0
+        self.need_n: float | None = None
+        self._window = 0
+
+    def frame(self, normal: Mapping[str, float], tang: Mapping[str, float],
+              slip: bool) -> None:
+        ft = sum(abs(t) for t in tang.values())
+        fn = sum(normal.values())
+        if self.slips == 0 and not slip:
+            self.load_n = ft if self.load_n is None else \
+                self.load_n + self.smooth * (ft - self.load_n)
+        if slip:
+            self.slips += 1
+            self._window = self.mu_frames + 1
+            if self.load_n is None:          # slipping from the first frame: take it now
+                self.load_n = ft
+        if self._window > 0 and fn > 0:
+            # At the friction limit the pooled ratio is mu (pooling averages the fingers'
+            # tangential errors, which have opposite signs as often as not).
+            r = ft / fn
+            self.mu_est = r if self.mu_est is None else max(self.mu_est, r)
+            self._window -= 1
+        if self.slips and self.mu_est and self.load_n is not None:
+            design = self.load_n * (1 + self.slips * self.rated_load)
+            self.need_n = self.safety * design / (self.fingers * self.mu_est)
+
+
 def hold(hand: RobotHand, cfg: HoldConfig, running: Callable[[], bool]) -> HoldResult:
     """Hold while ``running()`` is true (checked once per frame)."""
     if cfg.reflex not in ("fused", "force", "none"):
         raise ValueError(f"reflex must be fused, force or none, not {cfg.reflex!r}")
+    if cfg.law not in ("coulomb", "proportional"):
+        raise ValueError(f"law must be coulomb or proportional, not {cfg.law!r}")
+    if cfg.safety < 1 or cfg.rated_load < 0 or cfg.mu_frames < 0:
+        raise ValueError("safety must be >= 1, rated_load >= 0 and mu_frames >= 0")
     fingers = list(cfg.normal_deg)
     res = HoldResult()
     det = None
@@ -93,6 +159,7 @@ def hold(hand: RobotHand, cfg: HoldConfig, running: Callable[[], bool]) -> HoldR
     target: dict[str, float] = {}
     level: dict[str, float] = {}
     mu: float | None = None
+    law = CoulombLaw(len(fingers), cfg.safety, cfg.rated_load, cfg.mu_frames, cfg.smooth)
     while True:
         frames = hand.read(cfg.read_timeout_s)
         if frames is None:
@@ -129,11 +196,16 @@ def hold(hand: RobotHand, cfg: HoldConfig, running: Callable[[], bool]) -> HoldR
             level[f] = normal[f] if f not in level else \
                 level[f] + cfg.smooth * (normal[f] - level[f])
         res.slip_events += new
-        if new:
+        if cfg.law == "coulomb":
+            law.frame(normal, tang, bool(new))
+            if law.need_n is not None:
+                for f in fingers:
+                    target[f] = min(cfg.max_force_n, max(target[f], law.need_n))
+        elif new:
             for f in fingers:
                 target[f] = min(cfg.max_force_n,
                                 max(target[f], level[f]) * (1 + cfg.raise_fraction))
-        if new or mu is not None:
+        if cfg.law == "proportional" and (new or mu is not None):
             seen = max(abs(tang[f]) / normal[f] for f in fingers if normal[f] > 0.05)
             mu = seen if mu is None else max(mu, seen)
             for f in fingers:

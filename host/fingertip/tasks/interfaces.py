@@ -49,6 +49,24 @@ class ForceEstimator(Protocol):
                        strict: bool = False): ...
 
 
+class ContactSource(Protocol):
+    """Per-finger contact detection fed by a recipe (an
+    :class:`~fingertip.events.contact_set.ContactSet` is one): force frames always, piezo
+    blocks when ``needs_audio``. Each feed returns (finger, event) pairs; an event has
+    ``kind`` ("contact", "contact_confirmed", ...), ``time`` and ``detected_at``."""
+
+    @property
+    def needs_audio(self) -> bool: ...
+
+    def feed_force(self, finger: str, t: float, force_n: float,
+                   now: float | None = None) -> list: ...
+
+    def feed_audio(self, finger: str, samples: np.ndarray, t0: float,
+                   now: float | None = None) -> list: ...
+
+    def motion(self, t: float, fingers=None) -> None: ...
+
+
 class RobotHand(abc.ABC):
     """A hand whose fingers close and open along one axis each, with a fingertip on each.
 
@@ -84,6 +102,12 @@ class RobotHand(abc.ABC):
         first call starts the capture and may return an empty block). Needed by the cup and
         shake recipes, not by the pinch."""
         raise NotImplementedError(f"{type(self).__name__} has no audio capture")
+
+    def move(self, speeds_mm_s: Mapping[str, float]) -> None:
+        """Start moving each named finger at a constant speed (> 0 closes, 0 stops) until
+        told otherwise; returns at once. Needed by a pinch that approaches at a set speed
+        (``PinchConfig.approach_speed_mm_s``)."""
+        raise NotImplementedError(f"{type(self).__name__} has no speed-controlled moves")
 
     def step_z(self, increments_mm: Mapping[str, float]) -> None:
         """Move each named fingertip vertically (along the hand's axis, > 0 up) relative to
@@ -135,15 +159,15 @@ class RobotArm(abc.ABC):
         raise NotImplementedError(f"{type(self).__name__} keeps no z(t) log")
 
 
-def require(recipe: str, hand: RobotHand, arm: RobotArm, *, hand_methods: tuple[str, ...] = (),
-            arm_methods: tuple[str, ...] = ()) -> None:
+def require(recipe: str, hand: RobotHand, arm: RobotArm | None, *,
+            hand_methods: tuple[str, ...] = (), arm_methods: tuple[str, ...] = ()) -> None:
     """Refuse to start ``recipe`` before anything moves when the robot lacks one of the
     optional capabilities it needs (a method still the base class's): the error names them
     all, instead of surfacing mid-task with an object in the fingers."""
     missing = [f"{type(hand).__name__}.{m}" for m in hand_methods
                if getattr(type(hand), m) is getattr(RobotHand, m)]
     missing += [f"{type(arm).__name__}.{m}" for m in arm_methods
-                if getattr(type(arm), m) is getattr(RobotArm, m)]
+                if arm is None or getattr(type(arm), m) is getattr(RobotArm, m)]
     if missing:
         raise NotImplementedError(f"{recipe} needs {', '.join(missing)}: implement "
                                   f"{'it' if len(missing) == 1 else 'them'} for this robot "

@@ -13,8 +13,10 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+from ..events.contact_set import ContactSet
+from .approach import approach
 from .grip import Grip, PinchConfig, PinchOutcome, PinchResult, SensorFault
-from .interfaces import RobotArm, RobotHand
+from .interfaces import ContactSource, RobotArm, RobotHand, require
 
 __all__ = ["PinchConfig", "PinchOutcome", "PinchResult", "SensorFault",
            "demonstrate_threshold", "pinch"]
@@ -41,9 +43,26 @@ def demonstrate_threshold(forces_n: Iterable[Mapping[str, float]], window: int =
     return float(np.median(plateaus))
 
 
-def pinch(hand: RobotHand, arm: RobotArm | None, cfg: PinchConfig) -> PinchResult:
-    """Close to ``cfg.f_th_n`` on every finger, then hold while the arm lifts."""
+def pinch(hand: RobotHand, arm: RobotArm | None, cfg: PinchConfig,
+          contact: ContactSource | None = None) -> PinchResult:
+    """Close to ``cfg.f_th_n`` on every finger, then hold while the arm lifts.
+
+    With ``cfg.approach_speed_mm_s`` the fingers first close at that speed until
+    ``contact`` (default: force frames alone) reports each finger's touch
+    (:func:`.approach.approach`); the hand must implement ``move`` (and ``read_audio``
+    for a contact source that needs audio)."""
     grip = Grip(hand, cfg, arm=arm)
+    if cfg.approach_speed_mm_s is not None:
+        if contact is None:
+            contact = ContactSet(grip.fingers, "force")
+        require("the pinch's approach", hand, arm,
+                hand_methods=("move", "read_audio") if contact.needs_audio else ("move",))
+        if not grip.zero():
+            return grip.result
+        ar = approach(grip, cfg.approach_speed_mm_s, contact)
+        grip.result.contacts = ar.contacts
+        if not ar.ok:
+            return grip.result
     if grip.close() and arm is not None:
         arm.slide_z(cfg.lift_mm, cfg.lift_speed_mm_s)
         grip.hold(arm.moving)

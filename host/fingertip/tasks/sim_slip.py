@@ -171,15 +171,16 @@ class SlipHand(RobotHand):
             self._cursor[f] = b
 
 
-def run_hold_trial(trial: SlipTrial, reflex: str, hold_s: float = 1.0) -> dict:
-    """Hold ``trial``'s object with :func:`~.hold.hold` for ``hold_s`` while the load is
-    added; the truth and what the recipe did."""
+def run_hold_trial(trial: SlipTrial, reflex: str, hold_s: float = 1.0,
+                   law: str = "coulomb") -> dict:
+    """Hold ``trial``'s object with :func:`~.hold.hold` (its slip law ``law``) for ``hold_s``
+    while the load is added; the truth and what the recipe did."""
     from .hold import HoldConfig, hold
 
     hand = SlipHand(trial)
     end = hand.t_s + hold_s
     # The object's stiffness is what the grip's closing would have measured (force per mm).
-    cfg = HoldConfig(normal_deg=dict(hand.angles), reflex=reflex,
+    cfg = HoldConfig(normal_deg=dict(hand.angles), reflex=reflex, law=law,
                      stiffness_n_per_mm=trial.obj.stiffness_n_per_mm,
                      finger_speed_mm_s=trial.finger_speed_mm_s,
                      max_step_mm=trial.finger_speed_mm_s / RATE_SPS)

@@ -64,21 +64,31 @@ def _tare(sensor: VirtualStrainSensor, t0: float = 0.0) -> np.ndarray:
 
 def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
+    from .. import __version__
     from ..models.calibrate import fit_calibration, from_arrays
+    from ..models.fit_cache import fit_key
     from ..models.force import ForceModel
+    from .. import models
+    from ..sim import physics
 
-    out = cache_dir() / f"unit{unit_seed}"
+    fit = {"unit_seed": unit_seed, "rate_sps": RATE_SPS, "tare_samples": _TARE_SAMPLES,
+           "models": "mlp16x16", "epochs": 300, "t0_us": 1_000_000}
+    # Keyed by the fit's parameters and by the code that simulates and fits the unit, so a
+    # model fitted by older code is never reused (it was, with the unit's seed alone).
+    key = fit_key(fit, [Path(__file__), Path(physics.__file__).parent,
+                        Path(models.__file__).parent], __version__)
+    out = cache_dir() / f"unit{unit_seed}-{key}"
     onnx = out / "force.onnx"
     with _lock:
         if not onnx.is_file():
             sensor = VirtualStrainSensor(unit_seed, rate_sps=RATE_SPS)
             tare = _tare(sensor)
-            sw = calibration_sweep(sensor, seed=unit_seed, t0_us=1_000_000)
+            sw = calibration_sweep(sensor, seed=unit_seed, t0_us=fit["t0_us"])
             data = from_arrays(sw.counts - tare, sw.fx, sw.fy, angle_deg=sw.angle_deg,
                                height_mm=sw.height_mm, trial=sw.trial)
             cache_dir().mkdir(parents=True, exist_ok=True)
             tmp = Path(tempfile.mkdtemp(prefix=f"unit{unit_seed}-", dir=cache_dir()))
-            fit_calibration(data, tmp, models="mlp16x16", epochs=300, plot=False)
+            fit_calibration(data, tmp, models=fit["models"], epochs=fit["epochs"], plot=False)
             if out.exists():
                 shutil.rmtree(out)
             os.replace(tmp, out)
@@ -239,8 +249,12 @@ class SimHand(RobotHand):
         self.world.step_fingers_z(increments_mm)
 
     def read(self, timeout: float = 0.5) -> FrameSet | None:
+        self.world.advance(1.0 / RATE_SPS)
+        return self.frame_set()
+
+    def frame_set(self) -> FrameSet | None:
+        """Every fingertip's frame at the world's present time (None: a silent fault)."""
         w = self.world
-        w.advance(1.0 / RATE_SPS)
         fault = w.fault if w.fault is not None and w.t_s >= w.fault.at_s else None
         if fault is not None and fault.kind == "silent":
             return None
@@ -305,15 +319,17 @@ class SimArm(RobotArm):
 
 
 def make_world(spec: ObjectSpec, seed: int, *, hand_seed: int = 100,
-               fault: Fault | None = None) -> tuple[SimWorld, SimHand, SimArm]:
+               fault: Fault | None = None, hand_factory=SimHand
+               ) -> tuple[SimWorld, SimHand, SimArm]:
     """One trial: the object placed off-centre by a seeded amount (each finger touches it
     after 0.3-1.3 mm of travel), seeded contact angles and heights on the fingertips. The
-    four fingertips are virtual units ``hand_seed`` .. ``hand_seed + 3``."""
+    four fingertips are virtual units ``hand_seed`` .. ``hand_seed + 3``; ``hand_factory``
+    (world, unit seeds) builds the hand (a :class:`SimHand` or a subclass)."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 8]))
     gaps = {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}
     world = SimWorld(SimObject(spec, gaps), rng,
                      angles_deg={f: float(rng.uniform(-20, 20)) for f in FINGERS},
                      heights_mm={f: float(rng.uniform(1.0, 4.0)) for f in FINGERS},
                      fault=fault)
-    hand = SimHand(world, {f: hand_seed + i for i, f in enumerate(FINGERS)})
+    hand = hand_factory(world, {f: hand_seed + i for i, f in enumerate(FINGERS)})
     return world, hand, SimArm(world)
