@@ -9,7 +9,7 @@ from fingertip.sim.physics import AudioChain, Excitation
 from fingertip.sim.physics.grasp import G, HELD_OBJECTS, GraspSlip, HeldObject
 from fingertip.sim.physics.vibration import place
 from fingertip.tasks.hold import HoldConfig, hold, split_force
-from fingertip.tasks.sim_slip import SlipHand, SlipTrial, run_hold_trial
+from fingertip.sim.world.slip import SlipHand, SlipTrial, run_hold_trial
 
 FS = 44100
 BLOCK = FS // 80

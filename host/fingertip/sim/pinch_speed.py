@@ -3,8 +3,8 @@
 The pinch closes in two phases: each finger approaches at the closing speed v until its
 contact detector reports contact, then stops (``COMMAND_S`` for the command to reach the
 finger's motor, then braking at ``BRAKE_MM_S2``) and regulates to ``F_th`` with the paper's
-fine steps (:data:`fingertip.tasks.experiment.PINCH_OBJECTS`: a step per force frame). The
-object is the pinch trials' (:func:`fingertip.tasks.sim_world.make_world` placement: each
+fine steps (:data:`fingertip.sim.experiment.PINCH_OBJECTS`: a step per force frame). The
+object is the pinch trials' (:func:`fingertip.sim.world.hand.make_world` placement: each
 finger touches after 0.3-1.3 mm, on the skin's side 1-4 mm below the nail); a finger whose
 true force ever exceeds the object's crush force breaks it.
 
@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..tasks.experiment import PINCH_OBJECTS
-from ..tasks.sim_world import FINGERS
+from .experiment import PINCH_OBJECTS
+from .world.hand import FINGERS
 from .physics.touch import Session, Touch
 from .reflex_eval import run_session
 
@@ -52,7 +52,7 @@ class PinchSpeedTrial:
 
 
 def placement(seed: int) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
-    """Gaps, angles, heights as :func:`~fingertip.tasks.sim_world.make_world` draws them."""
+    """Gaps, angles, heights as :func:`~fingertip.sim.world.hand.make_world` draws them."""
     rng = np.random.default_rng(np.random.SeedSequence([seed, 8]))
     gaps = {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}
     angles = {f: float(rng.uniform(-20, 20)) for f in FINGERS}
