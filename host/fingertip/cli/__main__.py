@@ -1,6 +1,6 @@
-"""``python -m fingertip.record record|replay|export ...`` (the same as ``fingertip ...``)."""
+"""``python -m fingertip.cli ...`` (the same as ``fingertip ...``)."""
 import sys
 
-from .cli import main
+from .app import main
 
 sys.exit(main())

@@ -12,7 +12,7 @@ import logging
 import sys
 from pathlib import Path
 
-from ..argtypes import number
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -47,7 +47,7 @@ def _real_audio(args: argparse.Namespace, probe):
             return None
     else:
         device = args.audio_device
-    from .audio_capture import SoundCardAudio
+    from ..check.audio_capture import SoundCardAudio
 
     return SoundCardAudio(device, probe)
 
@@ -60,9 +60,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from .guide import NoPromptGuide, PromptGuide
-    from .probe import DeviceProbe
-    from .run import run_check
+    from ..check.guide import NoPromptGuide, PromptGuide
+    from ..check.probe import DeviceProbe
+    from ..check.run import run_check
 
     if args.fault and not args.virtual:
         log.error("--fault needs --virtual (faults are simulated)")
@@ -107,7 +107,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
         log.error("cannot write %s: %s", args.report, e.strerror or e)
         return 2
     if args.plot and len(reports) == 1 and "rest" in reports[0].recorded:
-        from .plot import plot_check
+        from ..check.plot import plot_check
 
         report = reports[0]
         plot_check(report.recorded["rest"], report.recorded.get("responses", {}), args.plot,

@@ -13,7 +13,7 @@ import logging
 import math
 from pathlib import Path
 
-from ..argtypes import number
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 

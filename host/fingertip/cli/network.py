@@ -10,9 +10,9 @@ import sys
 import time
 from typing import Any
 
-from ..argtypes import number
-from . import ExtraMissing
-from .record_cli import Stopper, record_from
+from .argtypes import number
+from ..network import ExtraMissing
+from ..network.record_cli import Stopper, record_from
 
 log = logging.getLogger("fingertip")
 
@@ -53,14 +53,14 @@ def _names(args: argparse.Namespace, n: int) -> list[str]:
 
 def make_transport(kind: str, args: argparse.Namespace):
     if kind == "dds":
-        from .dds import DdsTransport
+        from ..network.dds import DdsTransport
 
         return DdsTransport()
     if kind == "zenoh":
-        from .zenoh import ZenohTransport
+        from ..network.zenoh import ZenohTransport
 
         return ZenohTransport(args.zenoh_connect, args.zenoh_listen)
-    from .lsl import LslTransport
+    from ..network.lsl import LslTransport
 
     return LslTransport()
 
@@ -126,7 +126,7 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..protocol import ProtocolVersionError
     from ..record.recorder import Recorder, RecorderError
     from ..transport import DeviceNotFound, TransportError
-    from .feed import Feed
+    from ..network.feed import Feed
 
     if (args.material_model or args.shake_model) and not (
             args.audio or args.audio_file or args.virtual_audio):
@@ -134,7 +134,7 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                   "--audio-file or --virtual-audio")
         return 2
     try:
-        from ..record.cli import load_force_model
+        from .record import load_force_model
 
         force_model = load_force_model(args.force_model) if args.force_model else None
         classifiers = _load_classifiers(args)

@@ -3,7 +3,7 @@
 :func:`add_parsers` adds ``dataset`` to the subparsers of ``fingertip sim``. Handlers return
 an exit code: 0 done, 1 the writing failed part-way (disk full...), 2 a user error (bad
 argument, output folder not empty or not writable), each reported as one clear log line.
-``python -m fingertip.sim.cli dataset ...`` runs it on its own.
+``python -m fingertip.cli.sim dataset ...`` runs it on its own.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from ..argtypes import number
+from .argtypes import number
 from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
@@ -29,7 +29,7 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
     heights 0..5 mm, indentation steps of 1.5 mm to 30 mm, loading and unloading, 8 s pauses)
     on virtual units: one CSV per unit, in the layout of `fingertip export`, with the true
     forces."""
-    from .dataset import DatasetError, write_calibration
+    from ..sim.dataset import DatasetError, write_calibration
 
     try:
         res = write_calibration(
@@ -50,7 +50,7 @@ def _cmd_vibration(args: argparse.Namespace) -> int:
     """Simulate labelled contact-microphone recordings: one sub-folder per class of WAV
     files (materials: the paper's seven; shake: screws / rubber_bands / empty; cups: slides
     over a 5-cup stack with rim times and robot Z), and a manifest CSV."""
-    from .dataset import DatasetError, write_vibration
+    from ..sim.dataset import DatasetError, write_vibration
 
     try:
         res = write_vibration(
@@ -71,7 +71,7 @@ def _cmd_vibration(args: argparse.Namespace) -> int:
 def add_parsers(sub) -> None:
     """Add ``dataset`` (with ``calibration`` and ``vibration``) to ``sub``, the subparsers
     of ``fingertip sim``."""
-    from .dataset import DEFAULT_RECORDINGS, FORMATS, KINDS, MAX_RATE_HZ, MIN_RATE_HZ
+    from ..sim.dataset import DEFAULT_RECORDINGS, FORMATS, KINDS, MAX_RATE_HZ, MIN_RATE_HZ
 
     d = sub.add_parser("dataset", help="write simulated calibration sweeps or labelled "
                                        "vibration recordings",
@@ -129,7 +129,7 @@ def add_parsers(sub) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fingertip.sim.cli dataset calibration|vibration OUT ...``"""
+    """``python -m fingertip.cli.sim dataset calibration|vibration OUT ...``"""
     parser = argparse.ArgumentParser(prog="fingertip sim",
                                      description="The virtual fingertip's datasets.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")

@@ -10,20 +10,21 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from .. import __version__
 from .argtypes import dispatch
-from .device import Fingertip, FingertipError
-from .flash import FlashError, flash
-from .sim.faults import FAULTS
-from .check import cli as check_cli
+from ..device import Fingertip, FingertipError
+from ..flash import FlashError, flash
+from ..sim.faults import FAULTS
+from . import calibrate as calibration_cli
+from . import check as check_cli
+from . import classify as classifier_cli
+from . import experiment as tasks_cli
+from . import network as network_cli
+from . import record as record_cli
 from .frame_text import frame_json, frame_line
-from .hand_args import add_hand_args, hand_spec_from_args
+from ..hand_args import add_hand_args, hand_spec_from_args
 from .hand_stream import stream_hand
-from .models import calibration_cli, classifier_cli
-from .network import cli as network_cli
-from .record import cli as record_cli
-from .tasks import cli as tasks_cli
-from .protocol import (
+from ..protocol import (
     PROTOCOL_MAJOR,
     PROTOCOL_MINOR,
     ProtocolVersionError,
@@ -31,7 +32,7 @@ from .protocol import (
     StreamDecoder,
     message_to_dict,
 )
-from .transport import DeviceNotFound, TransportError, list_ports
+from ..transport import DeviceNotFound, TransportError, list_ports
 
 log = logging.getLogger("fingertip")
 
@@ -175,7 +176,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
 
     plot = None
     if args.plot or args.plot_png:
-        from .live_plot import LivePlot, NoDisplay
+        from ..live_plot import LivePlot, NoDisplay
 
         try:
             plot = LivePlot(4, png=args.plot_png)  # channels fixed below, once known
@@ -185,7 +186,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     with _open(args) as ft:
         fm = None
         if args.force_model:
-            from .models.force_load import ModelMismatch, force_model_for
+            from ..models.force_load import ModelMismatch, force_model_for
 
             try:
                 fm = force_model_for(ft, args.force_model)
@@ -274,13 +275,13 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     import signal
     import threading
 
-    from .sim import VirtualFirmware
-    from .sim.pty_device import PtyDevice
-    from .sim.physics import Idle, VirtualStrainSensor
+    from ..sim import VirtualFirmware
+    from ..sim.pty_device import PtyDevice
+    from ..sim.physics import Idle, VirtualStrainSensor
 
     if args.fault:
-        from .sim.bringup import VirtualUnit
-        from .sim.faults import parse_faults
+        from ..sim.bringup import VirtualUnit
+        from ..sim.faults import parse_faults
 
         if args.channels != 4:
             log.error("--fault needs the 4-channel fingertip")
@@ -316,7 +317,7 @@ def _cmd_sim_faults(args: argparse.Namespace) -> int:
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     """The whole chain on a virtual fingertip: physics -> firmware -> bridge -> events -> PNG."""
-    from .demo import run_demo
+    from ..demo import run_demo
 
     device = {"auto": None, "firmware": True, "python": False}[args.device]
     r = run_demo(args.out, use_firmware=device, seed=args.seed)
@@ -436,7 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
                           description=_cmd_sim_faults.__doc__)
     sf.set_defaults(func=_cmd_sim_faults)
-    from .sim.cli import add_parsers as add_sim_parsers
+    from .sim import add_parsers as add_sim_parsers
 
     add_sim_parsers(smsub)
     record_cli.add_parsers(sub)
