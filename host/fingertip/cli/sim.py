@@ -1,6 +1,8 @@
-"""``fingertip sim dataset calibration|vibration OUT``: datasets from the virtual fingertip.
+"""``fingertip sim device | faults | dataset``: the virtual fingertip on a pty, its build
+faults, and datasets from it.
 
-:func:`add_parsers` adds ``dataset`` to the subparsers of ``fingertip sim``. Handlers return
+:func:`add_group` adds ``fingertip sim`` with all three; :func:`add_parsers` adds ``dataset``
+to the subparsers of ``fingertip sim``. Handlers return
 an exit code: 0 done, 1 the writing failed part-way (disk full...), 2 a user error (bad
 argument, output folder not empty or not writable), each reported as one clear log line.
 ``python -m fingertip.cli.sim dataset ...`` runs it on its own.
@@ -14,7 +16,54 @@ from collections.abc import Sequence
 
 from .argtypes import number
 from ..badfile import reports_bad_files
+from ..sim.faults import FAULTS
+
 log = logging.getLogger("fingertip")
+
+
+def _cmd_sim_device(args: argparse.Namespace) -> int:
+    """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
+    import signal
+    import threading
+
+    from ..sim import VirtualFirmware
+    from ..sim.pty_device import PtyDevice
+    from ..sim.physics import Idle, VirtualStrainSensor
+
+    if args.fault:
+        from ..sim.bringup import VirtualUnit
+        from ..sim.faults import parse_faults
+
+        if args.channels != 4:
+            log.error("--fault needs the 4-channel fingertip")
+            return 2
+        try:
+            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
+        except ValueError as e:
+            log.error("%s", e)
+            return 2
+    else:
+        scene = Idle(duration=1e9)
+        source = VirtualStrainSensor(args.seed).as_source(scene)
+        fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with PtyDevice(fw, link=args.link) as dev:
+        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+        try:
+            while not stop.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def _cmd_sim_faults(args: argparse.Namespace) -> int:
+    """List the build faults `fingertip sim device --fault` and `fingertip check --virtual
+    --fault` take."""
+    for name, what in FAULTS.items():
+        print(f"{name:<16} {what}")
+    return 0
 
 
 def _report(res, what: str) -> None:
@@ -126,6 +175,24 @@ def add_parsers(sub) -> None:
     v.add_argument("--format", choices=FORMATS, default="wav",
                    help="wav (default) or flac, 16-bit PCM")
     v.set_defaults(func=_cmd_vibration)
+
+
+def add_group(sub) -> None:
+    """Add ``sim`` (device, faults, dataset) to the ``fingertip`` subparsers."""
+    sm = sub.add_parser("sim", help="the virtual fingertip (no hardware needed)")
+    smsub = sm.add_subparsers(dest="sim_command", metavar="SIM_COMMAND", required=True)
+    sd = smsub.add_parser("device", help="serve a virtual fingertip on a pseudo-terminal",
+                          description=_cmd_sim_device.__doc__)
+    sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
+    sd.add_argument("--link", help="also make this path a symlink to the pty")
+    sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
+                    help="a build fault (repeatable): " + ", ".join(FAULTS))
+    sd.set_defaults(func=_cmd_sim_device)
+    sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
+                          description=_cmd_sim_faults.__doc__)
+    sf.set_defaults(func=_cmd_sim_faults)
+    add_parsers(smsub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
