@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 from ..protocol import (
+    INT24_MAX, INT24_MIN,
     MAX_CHANNELS, MAX_TARE_SAMPLES, VALID_GAINS, VALID_RATES, Ack, Command, ErrorCode,
     ForeignInfo, GetInfo, GetStats, Info, Log, Nack,
     Ping, ProtocolVersionError, ResetCounters, Sample, SetGain, SetPower, SetRate,
@@ -59,10 +60,6 @@ class CommandTimeout(FingertipError, TimeoutError):
 
 class NotConnected(FingertipError):
     """The device is not connected (closed, or reconnecting for longer than the timeout)."""
-
-
-INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
-"""What a tare offset can be: the HX711's 24-bit two's complement range."""
 
 
 def check_int(name: str, value: object, lo: int, hi: int) -> int:
