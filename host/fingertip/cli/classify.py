@@ -240,7 +240,7 @@ def _cmd_classify(args: argparse.Namespace) -> int:
                                         not args.fast, args.seed)
             else:
                 from ..audio import SoundDeviceSource
-                from ..models.classify import sound_card_for_port
+                from ..device.pairing import sound_card_for_port
 
                 device = args.audio
                 if args.port is not None:

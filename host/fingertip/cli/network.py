@@ -98,7 +98,7 @@ def _audio_source(args):
 
     if args.audio is not None:
         if args.audio == "paired":  # the card behind the same USB hub as the fingertip
-            from ..models.classify import sound_card_for_port
+            from ..device.pairing import sound_card_for_port
 
             if not args.port:
                 raise ValueError("--audio paired needs --port (the sound card is found "

@@ -445,27 +445,3 @@ class _LiveGrowing:
             cut = min(len(self.buf), keep - self.buf_start)
             self.buf = self.buf[cut:]
             self.buf_start += cut
-
-
-# --- sound card of a fingertip ----------------------------------------------------------------
-
-def sound_card_for_port(port: str) -> int:
-    """The PortAudio input device of the USB sound card that shares a USB hub with the
-    fingertip on serial ``port`` (its piezo preamp's card). Raises LookupError."""
-    from ..audio import list_input_devices, usb_hub_of
-    from ..transport import list_ports
-
-    ports = {p.device: p for p in list_ports(include_non_usb=True)}
-    info = ports.get(port) or next((p for p in ports.values()
-                                    if os.path.realpath(p.device) == os.path.realpath(port)),
-                                   None)
-    if info is None or not info.location:
-        raise LookupError(f"{port}: not a USB serial port here (ports: "
-                          f"{', '.join(ports) or 'none'}); give the sound card with --audio")
-    hub = usb_hub_of(info.location)
-    cards = [d for d in list_input_devices()
-             if d.usb_path and hub and usb_hub_of(d.usb_path) == hub]
-    if len(cards) != 1:
-        raise LookupError(f"{len(cards)} USB sound cards share the hub {hub or '-'} of "
-                          f"{port}: give the sound card with --audio")
-    return cards[0].index
