@@ -122,8 +122,9 @@ class BridgeStats:
     bytes_in: int = 0
     crc_errors: int = 0
     cobs_errors: int = 0
-    framing_errors: int = 0
-    """Frames too short or too long."""
+    length_errors: int = 0
+    """Frames too short or too long (the device's ``rx_framing_errors`` is another count: COBS
+    errors and short frames among the commands it received)."""
     unknown_type: int = 0
     bad_payload: int = 0
     seq_gaps: int = 0
@@ -334,9 +335,10 @@ class Fingertip(FrameSource):
         d = self._decoder.stats
         c = self._counters
         return BridgeStats(
-            frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc, cobs_errors=d.cobs,
-            framing_errors=d.too_short + d.too_long, unknown_type=d.unknown_type,
-            bad_payload=d.bad_payload, seq_gaps=d.seq_gaps, frames_lost=d.frames_lost,
+            frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc_errors,
+            cobs_errors=d.cobs_errors, length_errors=d.too_short + d.too_long,
+            unknown_type=d.unknown_type, bad_payload=d.bad_payload, seq_gaps=d.seq_gaps,
+            frames_lost=d.frames_lost,
             overruns=c.overruns, reconnects=c.reconnects, device_resets=c.device_resets,
             callback_errors=c.callback_errors, command_retries=c.command_retries,
             log_lines=c.log_lines, foreign_devices=c.foreign_devices)
