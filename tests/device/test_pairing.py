@@ -57,7 +57,7 @@ def test_a_port_path_or_its_link_finds_its_paired_card(tmp_path):
     (tmp_path / "fingertip").symlink_to(tmp_path / "ttyACM0")
     assert port_info(str(tmp_path / "fingertip"), ports) is ports[0]
     assert sound_card_for_port(str(tmp_path / "ttyACM0"), ports=ports, sysfs_root=root) == "hw:1,0"
-    with pytest.raises(PairingError, match="not a serial port here"):
+    with pytest.raises(PairingError, match="not a USB serial port here"):
         sound_card_for_port("/dev/ttyUSB7", ports=ports, sysfs_root=root)
     with pytest.raises(LookupError, match="no USB sound card behind hub"):
         sound_card_for_port("/dev/ttyACM9", ports=ports, sysfs_root=root)

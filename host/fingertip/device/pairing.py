@@ -64,7 +64,7 @@ def port_info(port: str, ports: list[PortInfo] | None = None) -> PortInfo:
                                      if os.path.realpath(p.device) == os.path.realpath(port)),
                                     None)
     if info is None:
-        raise PairingError(f"{port}: not a serial port here (ports: "
+        raise PairingError(f"{port}: not a USB serial port here (ports: "
                            f"{', '.join(listed) or 'none'}); give the sound card with --audio")
     return info
 
