@@ -261,7 +261,6 @@ def _add_device_args(p: argparse.ArgumentParser):
     return g
 
 
-
 def add_parsers(sub) -> None:
     """Add decode, flash, devices, info, tare and stream to the ``fingertip`` subparsers."""
     d = sub.add_parser("decode", help="decode a capture of raw wire bytes and count errors",
