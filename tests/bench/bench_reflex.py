@@ -38,7 +38,7 @@ from fingertip.sim import pinch_speed as ps
 
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
 from fingertip.sim.reflex_eval import run_session, summarise
-from fingertip.tasks.sim_slip import run_hold_trial, slip_trials
+from fingertip.sim.world.slip import run_hold_trial, slip_trials
 
 CONTACTS = 500
 PER_SESSION = 5

@@ -1,4 +1,4 @@
-"""The paper's manipulation protocols on the simulated hand (fingertip.tasks.experiment):
+"""The paper's manipulation protocols on the simulated hand (fingertip.sim.experiment):
 pinch 25 + 25, cups 36, shake-and-pick 56, seeds from 0, and the pinch loop's latency.
 """
 from __future__ import annotations
@@ -8,7 +8,7 @@ import tempfile
 
 import numpy as np
 
-from fingertip.tasks import experiment as ex
+from fingertip.sim import experiment as ex
 
 
 _last: list = []

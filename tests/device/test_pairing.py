@@ -3,7 +3,13 @@ from __future__ import annotations
 
 import pytest
 
-from fingertip.device.pairing import PairingError, alsa_device_name, sound_card_for
+from fingertip.device.pairing import (
+    PairingError,
+    alsa_device_name,
+    port_info,
+    sound_card_for,
+    sound_card_for_port,
+)
 from fingertip.transport import DeviceNotFound, PortInfo, find_port
 from tests.audio.test_devices import fake_sysfs
 
@@ -39,3 +45,19 @@ def test_find_port_by_serial_none_or_several():
         find_port("Z9", ports)
     with pytest.raises(DeviceNotFound, match="2 ports share USB serial number 'B2'"):
         find_port("B2", ports)
+
+
+def test_a_port_path_or_its_link_finds_its_paired_card(tmp_path):
+    """One lookup for every command that pairs by port (classify --port, publish --audio
+    paired): the port by path or through a symlink, then its card by hub."""
+    root = fake_sysfs(tmp_path / "sys")
+    ports = [port("1-2.1:1.0", device=str(tmp_path / "ttyACM0")), port("1-4.1", "UNO-2",
+                                                                        "/dev/ttyACM9")]
+    (tmp_path / "ttyACM0").touch()
+    (tmp_path / "fingertip").symlink_to(tmp_path / "ttyACM0")
+    assert port_info(str(tmp_path / "fingertip"), ports) is ports[0]
+    assert sound_card_for_port(str(tmp_path / "ttyACM0"), ports=ports, sysfs_root=root) == "hw:1,0"
+    with pytest.raises(PairingError, match="not a USB serial port here"):
+        sound_card_for_port("/dev/ttyUSB7", ports=ports, sysfs_root=root)
+    with pytest.raises(LookupError, match="no USB sound card behind hub"):
+        sound_card_for_port("/dev/ttyACM9", ports=ports, sysfs_root=root)

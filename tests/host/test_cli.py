@@ -29,7 +29,7 @@ def test_decode_capture(tmp_path):
     lines = [json.loads(x) for x in r.stdout.decode().splitlines()]
     assert [x["type"] for x in lines] == ["sample", "stats"]
     counters = json.loads(r.stderr.decode().splitlines()[-1])["counters"]
-    assert counters["cobs"] == 1 and counters["frames_ok"] == 2
+    assert counters["cobs_errors"] == 1 and counters["frames_ok"] == 2
     assert counters["unterminated_bytes"] == 9
 
 

@@ -16,7 +16,7 @@ import soundfile as sf
 from scipy.signal import resample_poly
 
 from fingertip.audio import FileSource
-from fingertip.models.classifier_cli import main as cli
+from fingertip.cli.classify import main as cli
 from fingertip.models.classify import (
     DatasetError,
     ModelError,

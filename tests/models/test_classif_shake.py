@@ -9,7 +9,7 @@ import soundfile as sf
 
 from fingertip.audio import FileSource
 from fingertip.models import OnnxModel
-from fingertip.models.classifier_cli import main as cli
+from fingertip.cli.classify import main as cli
 from fingertip.models.classify import (
     DatasetError,
     Evaluation,

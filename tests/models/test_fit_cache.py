@@ -86,7 +86,7 @@ def test_unit_force_model_is_cached_under_its_key(tmp_path: Path,
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     """The real simulated unit's model lands in a folder named by its key, and a stale
     folder named by the seed alone (the old layout) is not used."""
-    from fingertip.tasks import sim_world
+    from fingertip.sim.world import hand as sim_world
 
     monkeypatch.setenv("FINGERTIP_TASKS_CACHE", str(tmp_path))
     stale = tmp_path / "unit100"

@@ -20,7 +20,7 @@ from fingertip.models.calibrate import (
     from_arrays,
     model_metadata,
 )
-from fingertip.models.calibration_cli import add_parsers
+from fingertip.cli.calibrate import add_parsers
 from fingertip.models.force import FrameForce, ForceModel, ForceStatus, InvalidCounts
 from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 

@@ -123,7 +123,7 @@ def test_cobs_rejections_named_in_issue():
         raise AssertionError(f"{bytes(bad)!r} was accepted")
     dec = StreamDecoder("device")
     assert dec.feed(b"\x03\x11\x00") == []
-    assert dec.stats.cobs == 1 and dec.stats.frames_ok == 0
+    assert dec.stats.cobs_errors == 1 and dec.stats.frames_ok == 0
 
 
 @given(st.lists(device_messages, min_size=1, max_size=20))

@@ -13,7 +13,7 @@ import pytest
 import soundfile as sf
 
 from fingertip.record import Recording
-from fingertip.record.cli import add_parsers, main
+from fingertip.cli.record import add_parsers, main
 
 logging.getLogger("fingertip").setLevel(logging.INFO)
 
@@ -154,7 +154,7 @@ def test_disk_filling_up_mid_recording_exits_1(device, tmp_path):
         resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
 
     out = tmp_path / "big.mcap"
-    r = subprocess.run([sys.executable, "-m", "fingertip.record", "record", "--port",
+    r = subprocess.run([sys.executable, "-m", "fingertip.cli", "record", "--port",
                         str(device.link), "-o", str(out), "--duration", "20",
                         "--flush-interval", "0.1", "--compression", "none"],
                        capture_output=True, text=True, timeout=30, preexec_fn=limit)
@@ -169,7 +169,7 @@ def test_disk_filling_up_mid_recording_exits_1(device, tmp_path):
 
 
 def test_module_entry_point(tmp_path, capsys):
-    r = subprocess.run([sys.executable, "-m", "fingertip.record", "--help"],
+    r = subprocess.run([sys.executable, "-m", "fingertip.cli", "--help"],
                        capture_output=True, text=True, timeout=30)
     assert r.returncode == 0 and "record" in r.stdout and "export" in r.stdout
     assert main([]) == 2
@@ -181,7 +181,7 @@ def test_stop_signals_finish_the_file(device, tmp_path, sig):
     import signal
 
     out = tmp_path / "sig.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "fingertip.record", "record", "--port",
+    proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", "record", "--port",
                              str(device.link), "-o", str(out)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
@@ -205,7 +205,7 @@ def test_progress_line_on_a_terminal(device, tmp_path):
 
     master, slave = pty.openpty()
     out = tmp_path / "tty.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "fingertip.record", "record", "--port",
+    proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", "record", "--port",
                              str(device.link), "-o", str(out), "--duration", "1.2"],
                             stdout=subprocess.DEVNULL, stderr=slave)
     os.close(slave)
@@ -230,7 +230,7 @@ def test_progress_line_on_a_terminal(device, tmp_path):
 
 def test_the_parsers_import_no_recording_machinery():
     """`fingertip --help` must stay fast: mcap, numpy & co. load only when a command runs."""
-    r = subprocess.run([sys.executable, "-c", "import sys, fingertip.record.cli; "
+    r = subprocess.run([sys.executable, "-c", "import sys, fingertip.cli.record; "
                         "print(sorted(m for m in ('mcap', 'numpy', 'soundfile') "
                         "if m in sys.modules))"], capture_output=True, text=True, timeout=30)
     assert r.returncode == 0, r.stderr

@@ -41,7 +41,7 @@ def test_record_device_and_sound_card(pulse, device, tmp_path):
     out = tmp_path / "live.mcap"
     env = dict(os.environ, **pulse.client_env())
     proc = subprocess.Popen(
-        [sys.executable, "-m", "fingertip.record", "record", "--port", str(device.link),
+        [sys.executable, "-m", "fingertip.cli", "record", "--port", str(device.link),
          "-o", str(out), "--duration", "3", "--audio", "pulse", "--name", "index"],
         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -41,7 +41,7 @@ def record_then_kill(port, path, seconds: float, *extra: str) -> tuple[float, fl
     """Run `python -m fingertip.record record` on ``port`` into ``path``, SIGKILL it
     ``seconds`` after it said it is recording; (time it said so, time of the kill)."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "fingertip.record", "record", "--port", str(port),
+        [sys.executable, "-m", "fingertip.cli", "record", "--port", str(port),
          "-o", str(path), "--name", "index", "--flush-interval", str(FLUSH), *extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:

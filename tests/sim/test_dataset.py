@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from fingertip.sim.cli import main
+from fingertip.cli.sim import main
 from fingertip.sim.dataset import (
     CALIBRATION_COLUMNS, MANIFEST_COLUMNS, DatasetError, read_calibration_csv, resample,
     write_calibration, write_vibration,

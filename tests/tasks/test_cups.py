@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from fingertip.tasks.cups import CupConfig, count_rims, unstack
-from fingertip.tasks.experiment import cups_table, run_cups
-from fingertip.tasks.sim_cups import approach_height, make_cup_world
+from fingertip.sim.experiment import cups_table, run_cups
+from fingertip.sim.world.cups import approach_height, make_cup_world
 
 TRIALS = 36
 

@@ -8,8 +8,8 @@ from fingertip.events.slip import SlipDetector
 from fingertip.sim.physics import AudioChain, Excitation
 from fingertip.sim.physics.grasp import G, HELD_OBJECTS, GraspSlip, HeldObject
 from fingertip.sim.physics.vibration import place
+from fingertip.sim.world.slip import SlipHand, SlipTrial, run_hold_trial, slip_trials
 from fingertip.tasks.hold import CoulombLaw, HoldConfig, hold, split_force
-from fingertip.tasks.sim_slip import SlipHand, SlipTrial, run_hold_trial, slip_trials
 
 FS = 44100
 BLOCK = FS // 80

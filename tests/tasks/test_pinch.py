@@ -7,8 +7,8 @@ import math
 import pytest
 
 from fingertip.tasks import PinchConfig, PinchOutcome, demonstrate_threshold, pinch
-from fingertip.tasks.sim_demo import demonstrate
-from fingertip.tasks.sim_world import CHIP, TOFU, Fault, make_world
+from fingertip.sim.world.demonstration import demonstrate
+from fingertip.sim.world.hand import CHIP, TOFU, Fault, make_world
 
 TRIALS = 25
 CASES = {"tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}

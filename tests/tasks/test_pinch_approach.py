@@ -10,9 +10,9 @@ import pytest
 from fingertip.events.contact_set import ContactSet
 from fingertip.events.reflex import OnsetDetector
 from fingertip.sim import pinch_speed as ps
-from fingertip.sim.approach_hand import ACCEL_MM_S2, COMMAND_S, ApproachHand
+from fingertip.sim.world.approach_hand import ACCEL_MM_S2, COMMAND_S, ApproachHand
 from fingertip.tasks import PinchConfig, PinchOutcome, pinch
-from fingertip.tasks.sim_world import CHIP, FINGERS, TOFU, make_world
+from fingertip.sim.world.hand import CHIP, FINGERS, TOFU, make_world
 
 
 def _hand(rate=80.0, spec=TOFU, seed=3):

@@ -15,7 +15,7 @@ from .signals import Segment
 
 LINK_COUNTERS = ("rx_overflows", "rx_crc_errors", "rx_framing_errors", "tx_overruns")
 log = logging.getLogger(__name__)
-BRIDGE_COUNTERS = ("crc_errors", "cobs_errors", "framing_errors", "bad_payload", "frames_lost",
+BRIDGE_COUNTERS = ("crc_errors", "cobs_errors", "length_errors", "bad_payload", "frames_lost",
                    "overruns")
 
 

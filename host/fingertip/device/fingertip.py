@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 from ..protocol import (
+    INT24_MAX, INT24_MIN,
     MAX_CHANNELS, MAX_TARE_SAMPLES, VALID_GAINS, VALID_RATES, Ack, Command, ErrorCode,
     ForeignInfo, GetInfo, GetStats, Info, Log, Nack,
     Ping, ProtocolVersionError, ResetCounters, Sample, SetGain, SetPower, SetRate,
@@ -59,10 +60,6 @@ class CommandTimeout(FingertipError, TimeoutError):
 
 class NotConnected(FingertipError):
     """The device is not connected (closed, or reconnecting for longer than the timeout)."""
-
-
-INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
-"""What a tare offset can be: the HX711's 24-bit two's complement range."""
 
 
 def check_int(name: str, value: object, lo: int, hi: int) -> int:
@@ -125,8 +122,9 @@ class BridgeStats:
     bytes_in: int = 0
     crc_errors: int = 0
     cobs_errors: int = 0
-    framing_errors: int = 0
-    """Frames too short or too long."""
+    length_errors: int = 0
+    """Frames too short or too long (the device's ``rx_framing_errors`` is another count: COBS
+    errors and short frames among the commands it received)."""
     unknown_type: int = 0
     bad_payload: int = 0
     seq_gaps: int = 0
@@ -337,9 +335,10 @@ class Fingertip(FrameSource):
         d = self._decoder.stats
         c = self._counters
         return BridgeStats(
-            frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc, cobs_errors=d.cobs,
-            framing_errors=d.too_short + d.too_long, unknown_type=d.unknown_type,
-            bad_payload=d.bad_payload, seq_gaps=d.seq_gaps, frames_lost=d.frames_lost,
+            frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc_errors,
+            cobs_errors=d.cobs_errors, length_errors=d.too_short + d.too_long,
+            unknown_type=d.unknown_type, bad_payload=d.bad_payload, seq_gaps=d.seq_gaps,
+            frames_lost=d.frames_lost,
             overruns=c.overruns, reconnects=c.reconnects, device_resets=c.device_resets,
             callback_errors=c.callback_errors, command_retries=c.command_retries,
             log_lines=c.log_lines, foreign_devices=c.foreign_devices)

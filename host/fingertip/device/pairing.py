@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 
 from ..audio import AudioDeviceNotFound, alsa_cards, find_alsa_card, usb_hub_of
-from ..transport import PortInfo
+from ..transport import PortInfo, list_ports
 
 
 class PairingError(LookupError):
@@ -55,3 +55,23 @@ def sound_card_for(port: PortInfo, *, card_serial: str | None = None,
 def alsa_device_name(card: int) -> str:
     """The name PortAudio lists the card's first capture device under (``hw:N,0``)."""
     return f"hw:{int(card)},0"
+
+
+def port_info(port: str, ports: list[PortInfo] | None = None) -> PortInfo:
+    """The USB identity of serial port ``port`` (a path or a symlink to one)."""
+    listed = {p.device: p for p in (list_ports(include_non_usb=True) if ports is None else ports)}
+    info = listed.get(port) or next((p for p in listed.values()
+                                     if os.path.realpath(p.device) == os.path.realpath(port)),
+                                    None)
+    if info is None:
+        raise PairingError(f"{port}: not a USB serial port here (ports: "
+                           f"{', '.join(listed) or 'none'}); give the sound card with --audio")
+    return info
+
+
+def sound_card_for_port(port: str, *, ports: list[PortInfo] | None = None,
+                        sysfs_root: str | os.PathLike = "/sys") -> str:
+    """The capture device name (``hw:N,0``) of the sound card paired with the fingertip on
+    serial port ``port`` (``ports``: the serial ports, listed here when None); a
+    :class:`PairingError` (a LookupError) says why there is none."""
+    return alsa_device_name(sound_card_for(port_info(port, ports), sysfs_root=sysfs_root))

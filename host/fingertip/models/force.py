@@ -29,9 +29,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..badfile import BadFileError
+from ..protocol import INT24_MAX, INT24_MIN
 from .onnx_io import open_session
-
-INT24_MIN, INT24_MAX = -(1 << 23), (1 << 23) - 1
 
 
 class ForceStatus(enum.IntFlag):

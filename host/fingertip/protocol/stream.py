@@ -23,6 +23,9 @@ from .messages import (
 
 _SAMPLE = int(MsgType.SAMPLE)
 
+COUNTER_OF_KIND = {**{k: k for k in ERROR_KINDS}, "cobs": "cobs_errors", "crc": "crc_errors"}
+"""The counter (docs/protocol.md, "Counters") that counts frames rejected for each error kind."""
+
 
 @dataclass(slots=True)
 class DecoderStats:
@@ -31,10 +34,10 @@ class DecoderStats:
     bytes_in: int = 0
     frames_ok: int = 0
     empty_frames: int = 0
-    cobs: int = 0
+    cobs_errors: int = 0
     too_short: int = 0
     too_long: int = 0
-    crc: int = 0
+    crc_errors: int = 0
     unknown_type: int = 0
     bad_payload: int = 0
     bytes_dropped: int = 0
@@ -48,11 +51,12 @@ class DecoderStats:
 
     @property
     def errors(self) -> dict[str, int]:
-        return {k: getattr(self, k) for k in ERROR_KINDS}
+        """Rejected frames by error kind (:data:`ERROR_KINDS`, the vector file's words)."""
+        return {k: getattr(self, COUNTER_OF_KIND[k]) for k in ERROR_KINDS}
 
     @property
     def errors_total(self) -> int:
-        return sum(getattr(self, k) for k in ERROR_KINDS)
+        return sum(getattr(self, COUNTER_OF_KIND[k]) for k in ERROR_KINDS)
 
     def as_dict(self) -> dict[str, int]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -134,11 +138,12 @@ class StreamDecoder:
                 else:
                     msg = decode_frame(frame, self.direction)
             except CobsError:
-                st.cobs += 1
+                st.cobs_errors += 1
                 st.bytes_dropped += n
                 continue
             except FrameError as e:
-                setattr(st, e.kind, getattr(st, e.kind) + 1)
+                counter = COUNTER_OF_KIND[e.kind]
+                setattr(st, counter, getattr(st, counter) + 1)
                 st.bytes_dropped += n
                 if e.nack is not None:
                     out.append(RejectedCommand(e.request_id, e.command, e.nack, e.detail))

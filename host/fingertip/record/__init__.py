@@ -10,7 +10,7 @@
 * :func:`export`: CSV per fingertip, WAV per audio stream, events CSV.
 
 See docs/recording.md. This layer sits above ``device`` and ``audio``. Its names are
-imported on first use, so that ``fingertip.record.cli`` (the argument parsers) stays cheap
+imported on first use, so that ``fingertip.cli.record`` (the argument parsers) stays cheap
 to import for the command line.
 """
 from __future__ import annotations

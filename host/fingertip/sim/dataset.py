@@ -1,7 +1,7 @@
 """Datasets from the virtual fingertip: calibration sweeps and labelled vibration recordings.
 
 ``fingertip sim dataset calibration OUT`` and ``fingertip sim dataset vibration OUT`` (see
-:mod:`fingertip.sim.cli`) call :func:`write_calibration` and :func:`write_vibration`.
+:mod:`fingertip.cli.sim`) call :func:`write_calibration` and :func:`write_vibration`.
 
 - Calibration: the paper's sweep (:func:`~fingertip.sim.physics.calibration_sweep`) on one
   or more virtual units, one CSV per unit, in the layout of ``fingertip export``'s

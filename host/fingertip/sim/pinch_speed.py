@@ -5,8 +5,8 @@ Each trial is :func:`fingertip.tasks.pinch.pinch` (the recipe ``fingertip experi
 pinch`` runs) with ``approach_speed_mm_s`` set: every finger closes at that speed until its
 contact detector reports a touch, stops, and the recipe regulates to the paper's pinch force
 (0.5 N tofu, 0.1 N chip: ``PINCH_OBJECTS``) with its fine steps, then lifts 20 mm. The hand
-is :class:`.approach_hand.ApproachHand` on the pinch trials' world
-(:func:`~fingertip.tasks.sim_world.make_world`, seed = trial): force frames at 15 Hz (the
+is :class:`.world.approach_hand.ApproachHand` on the pinch trials' world
+(:func:`~fingertip.sim.world.hand.make_world`, seed = trial): force frames at 15 Hz (the
 paper's controller) or 80 Hz, the piezos for the fused detector, and the world's crushing.
 The contact source is :class:`~fingertip.events.contact_set.ContactSet`: force frames alone
 (``force15``, ``force80``) or fused piezo + force at 80 Hz (``fused``).
@@ -25,10 +25,10 @@ from dataclasses import dataclass
 from functools import partial
 
 from ..events.contact_set import ContactSet
-from ..tasks.experiment import PINCH_OBJECTS
+from .experiment import PINCH_OBJECTS
 from ..tasks.pinch import PinchConfig, pinch
-from ..tasks.sim_world import FINGERS, make_world
-from .approach_hand import ApproachHand
+from .world.hand import FINGERS, make_world
+from .world.approach_hand import ApproachHand
 
 log = logging.getLogger(__name__)
 

@@ -13,7 +13,7 @@ import logging
 import math
 from pathlib import Path
 
-from ..argtypes import number
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -35,7 +35,7 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     """Run the paper's protocol on the virtual fingertips of a simulated four-finger hand
     (seeds SEED .. SEED + N - 1, each varying the world) and print the results table."""
     from ..sim.dataset import Progress
-    from . import experiment as ex
+    from ..sim import experiment as ex
 
     n = args.trials or DEFAULT_TRIALS[args.protocol]
     if args.json is not None:

@@ -19,14 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..device import Frame
-from ..sim.physics import AudioChain, Excitation, VirtualStrainSensor
-from ..sim.physics.disturbances import motor_noise
-from ..sim.physics.grasp import GraspSlip, HeldObject
-from ..sim.physics.touch import LINK_MM
-from ..sim.physics.vibration import place
-from .interfaces import AudioBlock, FrameSet, RobotHand
-from .sim_world import RATE_SPS, _tare, unit_force_model
+from ...device import Frame
+from ..physics import AudioChain, Excitation, VirtualStrainSensor
+from ..physics.disturbances import motor_noise
+from ..physics.grasp import GraspSlip, HeldObject
+from ..physics.touch import LINK_MM
+from ..physics.vibration import place
+from ...tasks.interfaces import AudioBlock, FrameSet, RobotHand
+from .hand import RATE_SPS, tare_counts, unit_force_model
 
 SLIP_FINGERS = ("f0", "f1")
 SUBSTEP_S = 0.0005
@@ -59,7 +59,7 @@ class SlipHand(RobotHand):
         self.angles = {f: trial.angles_deg.get(f, float(rng.uniform(-30, 30)))
                        for f in SLIP_FINGERS}
         self.t_s = 1.0
-        self._tares = {f: _tare(s, self.t_s - 1.0) for f, s in self._sensors.items()}
+        self._tares = {f: tare_counts(s, self.t_s - 1.0) for f, s in self._sensors.items()}
         k = trial.obj.stiffness_n_per_mm
         self.gap = {f: float(rng.uniform(0.3, 1.3)) for f in SLIP_FINGERS}
         self.pos = {f: self.gap[f] + trial.grip_n / k for f in SLIP_FINGERS}
@@ -173,9 +173,9 @@ class SlipHand(RobotHand):
 
 def run_hold_trial(trial: SlipTrial, reflex: str, hold_s: float = 1.0,
                    law: str = "coulomb") -> dict:
-    """Hold ``trial``'s object with :func:`~.hold.hold` (its slip law ``law``) for ``hold_s``
-    while the load is added; the truth and what the recipe did."""
-    from .hold import HoldConfig, hold
+    """Hold ``trial``'s object with :func:`~fingertip.tasks.hold.hold` (its slip law ``law``)
+    for ``hold_s`` while the load is added; the truth and what the recipe did."""
+    from ...tasks.hold import HoldConfig, hold
 
     hand = SlipHand(trial)
     end = hand.t_s + hold_s
@@ -204,7 +204,7 @@ def slip_trials(n: int, seed: int = 0, load_range: tuple[float, float] = (0.2, 0
     """``n`` trials, seeds ``seed``..: the objects in turn, an initial grip of ``margin`` x
     the least that holds the object (log-uniform), a load of ``load_range`` x its mass added
     in 5 ms at 0.3 s."""
-    from ..sim.physics.grasp import HELD_OBJECTS
+    from ..physics.grasp import HELD_OBJECTS
 
     names = list(HELD_OBJECTS)
     out = []

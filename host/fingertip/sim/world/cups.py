@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..sim.physics import CupStackSlide, load
-from .sim_world import FINGERS, ObjectSpec, SimArm, SimHand, SimObject, SimWorld
+from ..physics import CupStackSlide, load
+from .hand import FINGERS, ObjectSpec, SimArm, SimHand, SimObject, SimWorld
 
 CUP = ObjectSpec("paper cups", stiffness_n_per_mm=0.4, crush_n=3.0, mass_kg=0.004,
                  friction=0.5)

@@ -9,7 +9,7 @@ import contextlib
 import logging
 import sys
 
-from ..argtypes import number
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -61,9 +61,9 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..reference import ReferenceError, load_reference_csv
     from ..reference.rdt import RdtClient
     from ..transport import DeviceNotFound, TransportError
-    from .align import AlignmentError
-    from .calib_record import align_and_join, fit_joined, load_fingertip_csv, record_session
-    from .calibrate import CalibrationError
+    from ..models.align import AlignmentError
+    from ..models.calib_record import align_and_join, fit_joined, load_fingertip_csv, record_session
+    from ..models.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
                                                     flush=True))
@@ -149,8 +149,8 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from .calibrate import CalibrationError, fit_calibration
-    from .weights import DIRECTIONS, PromptWeightsGuide, record_weights
+    from ..models.calibrate import CalibrationError, fit_calibration
+    from ..models.weights import DIRECTIONS, PromptWeightsGuide, record_weights
 
     dirs = [d.strip().upper() for d in args.directions.split(",")]
     bad = [d for d in dirs if d not in DIRECTIONS]
@@ -206,7 +206,7 @@ def _network_reference(args: argparse.Namespace):
 
 
 def add_parser(csub) -> None:
-    from .calibration_cli import _models
+    from .calibrate import _models
 
     r = csub.add_parser("record", help="record with a reference sensor, align clocks, fit",
                         description=_cmd_record.__doc__)

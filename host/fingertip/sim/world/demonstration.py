@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .grip import force_vectors
-from .pinch import demonstrate_threshold
-from .sim_world import ObjectSpec, make_world
+from ...tasks.grip import force_vectors
+from ...tasks.pinch import demonstrate_threshold
+from .hand import ObjectSpec, make_world
 
 
 @dataclass

@@ -5,7 +5,7 @@ return an exit code, as in :mod:`fingertip.cli`: 0 done; 2 a user error (bad arg
 unreadable dataset, or data that cannot determine the model: one angle only, a dead
 channel, too many saturated rows...), reported as one clear log line with its reason code;
 1 a failure part-way (writing the outputs, training diverged, ``onnx`` missing).
-``python -m fingertip.models.calibration_cli fit DATASET`` runs it on its own.
+``python -m fingertip.cli.calibrate fit DATASET`` runs it on its own.
 """
 from __future__ import annotations
 
@@ -15,13 +15,13 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from ..argtypes import number
+from .argtypes import number
 from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 
 def _models(text: str) -> list[str]:
-    from .calibrate import expand_models
+    from ..models.calibrate import expand_models
 
     try:
         return expand_models(text)
@@ -30,7 +30,7 @@ def _models(text: str) -> list[str]:
 
 
 def _load(args: argparse.Namespace):
-    from .calibrate import CalibrationError, check_dataset, load_dataset
+    from ..models.calibrate import CalibrationError, check_dataset, load_dataset
 
     try:
         data = load_dataset(args.dataset, unit=args.unit,
@@ -73,7 +73,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     in N, optionally angle_deg, height_mm, trial, masks), test them on held-out cells of the
     protocol, export each to ONNX, time them with onnxruntime, and choose the fastest within
     the error bound. See docs/calibration.md."""
-    from .calibrate import CalibrationError, fit_calibration
+    from ..models.calibrate import CalibrationError, fit_calibration
 
     data, summary = _load(args)
     if data is None:
@@ -118,7 +118,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def add_parsers(sub) -> None:
     """Add ``calibrate`` (with ``fit`` and ``check``) to ``sub``, the top-level subparsers
     of ``fingertip``."""
-    from .calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
+    from ..models.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
 
     c = sub.add_parser("calibrate", help="fit the force calibration (counts -> newtons)",
                        description="Force calibration of a fingertip from the paper's indenter "
@@ -161,13 +161,13 @@ def add_parsers(sub) -> None:
                         description=_cmd_check.__doc__)
     common(k)
     k.set_defaults(func=_cmd_check)
-    from .calib_record_cli import add_parser as add_record_parser
+    from .calibrate_record import add_parser as add_record_parser
 
     add_record_parser(csub)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fingertip.models.calibration_cli fit DATASET ...``"""
+    """``python -m fingertip.cli.calibrate fit DATASET ...``"""
     parser = argparse.ArgumentParser(prog="fingertip", description="Force calibration.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     add_parsers(parser.add_subparsers(dest="command", metavar="COMMAND", required=True))

@@ -2,7 +2,7 @@
 each fingertip's piezo: what a pinch that approaches at speed needs
 (:meth:`~fingertip.tasks.interfaces.RobotHand.move`, ``read``, ``read_audio``).
 
-It is :class:`~fingertip.tasks.sim_world.SimHand` (same world, same virtual strain units
+It is :class:`~fingertip.sim.world.hand.SimHand` (same world, same virtual strain units
 and force models, same crushing: an object breaks the moment a finger's true force exceeds
 its ``crush_n``) with three additions:
 
@@ -32,12 +32,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..tasks.interfaces import AudioBlock, FrameSet
-from ..tasks.sim_world import FINGERS, SimHand, SimWorld
-from .physics import AudioChain, Excitation
-from .physics.disturbances import MOTOR, motor_noise, room_noise, speech
-from .physics.touch import LINK_MM, MAKE_N_PER_MM_S
-from .physics.vibration import half_sine, place, smooth_noise
+from ...tasks.interfaces import AudioBlock, FrameSet
+from .hand import FINGERS, SimHand, SimWorld
+from ..physics import AudioChain, Excitation
+from ..physics.disturbances import MOTOR, motor_noise, room_noise, speech
+from ..physics.touch import LINK_MM, MAKE_N_PER_MM_S
+from ..physics.vibration import half_sine, place, smooth_noise
 
 COMMAND_S = 0.002
 """From the host's command to the finger's motor (a serial command; assumed)."""

@@ -21,23 +21,21 @@ from __future__ import annotations
 import logging
 import os
 import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..sim.physics import BoxShake, load
-from .sim_world import (
+from ..physics import BoxShake, load
+from .hand import (
     FINGERS,
     ObjectSpec,
     SimArm,
     SimHand,
     SimObject,
     SimWorld,
-    _lock,
-    cache_dir,
 )
+from .cache import cached
 
 log = logging.getLogger(__name__)
 
@@ -157,22 +155,18 @@ def shake_model_path(recordings_per_class: int = 20) -> Path:
     trained once on simulated shakes like the paper's training set (20 per class: screws,
     rubber bands, empty; 5.6 s; grips 1-2 N; default fills and amplitude) and cached under
     :func:`cache_dir`. Deterministic: about 5 s the first time."""
-    from ..models.shake import train_shake
-    from ..sim.dataset import write_vibration
+    from ...models.shake import train_shake
+    from ..dataset import write_vibration
 
-    out = cache_dir() / f"shake-mlp-{SHAKE_MODEL_SEED}-{recordings_per_class}"
-    onnx = out / "shake_mlp.onnx"
-    with _lock:
-        if not onnx.is_file():
-            cache_dir().mkdir(parents=True, exist_ok=True)
-            tmp = Path(tempfile.mkdtemp(prefix="shake-", dir=cache_dir()))
-            log.info("training the shake classifier on simulated shakes in %s", tmp)
-            write_vibration(tmp / "data", kind="shake", recordings_per_class=recordings_per_class,
-                            seed=SHAKE_MODEL_SEED)
-            train_shake(tmp / "data", tmp / "model", models=("mlp",), plot=False, seed=0)
-            shutil.rmtree(tmp / "data")
-            if out.exists():
-                shutil.rmtree(out)
-            os.replace(tmp / "model", out)
-            shutil.rmtree(tmp)
-        return onnx
+    def build(folder: Path) -> None:
+        log.info("training the shake classifier on simulated shakes in %s", folder)
+        write_vibration(folder / "data", kind="shake", recordings_per_class=recordings_per_class,
+                        seed=SHAKE_MODEL_SEED)
+        train_shake(folder / "data", folder / "model", models=("mlp",), plot=False, seed=0)
+        shutil.rmtree(folder / "data")
+        # the product sits at the top of the entry, as the cache expects
+        for item in (folder / "model").iterdir():
+            os.replace(item, folder / item.name)
+        (folder / "model").rmdir()
+
+    return cached(f"shake-mlp-{SHAKE_MODEL_SEED}-{recordings_per_class}", "shake_mlp.onnx", build)

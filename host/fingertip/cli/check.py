@@ -10,9 +10,9 @@ import contextlib
 import logging
 import sys
 
-from ..argtypes import number
+from ..check.output import finish
 from ..hand_args import add_hand_args, hand_spec_from_args
-from .output import finish
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -47,7 +47,7 @@ def _real_audio(args: argparse.Namespace, probe):
             return None
     else:
         device = args.audio_device
-    from .audio_capture import SoundCardAudio
+    from ..check.audio_capture import SoundCardAudio
 
     return SoundCardAudio(device, probe)
 
@@ -60,9 +60,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from .guide import NoPromptGuide, PromptGuide
-    from .probe import DeviceProbe
-    from .run import run_check
+    from ..check.guide import NoPromptGuide, PromptGuide
+    from ..check.probe import DeviceProbe
+    from ..check.run import run_check
 
     if args.fault and not args.virtual:
         log.error("--fault needs --virtual (faults are simulated)")
@@ -70,7 +70,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     say = None if args.quiet else (lambda m: print(f"check: {m}", file=sys.stderr, flush=True))
     try:
         if (hand := hand_spec_from_args(args)) is not None:
-            from .hand import check_hand
+            from ..check.hand import check_hand
 
             return finish(args, hand.fingers, check_hand(hand, args, say), key="finger")
     except ValueError as e:  # bad hand options

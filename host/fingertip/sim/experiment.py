@@ -15,13 +15,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .cups import CupConfig, unstack
-from .pinch import PinchConfig, pinch
-from .shake_pick import ShakeConfig, shake_and_pick
-from .sim_boxes import BOX_X_MM, MATERIALS, make_box_world, shake_model_path
-from .sim_cups import approach_height, make_cup_world
-from .sim_demo import demonstrate
-from .sim_world import CHIP, TOFU, ObjectSpec, make_world
+from ..tasks.cups import CupConfig, unstack
+from ..tasks.pinch import PinchConfig, pinch
+from ..tasks.shake_pick import ShakeConfig, shake_and_pick
+from .world.boxes import BOX_X_MM, MATERIALS, make_box_world, shake_model_path
+from .world.cups import approach_height, make_cup_world
+from .world.demonstration import demonstrate
+from .world.hand import CHIP, TOFU, ObjectSpec, make_world
 
 log = logging.getLogger(__name__)
 

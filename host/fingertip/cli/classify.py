@@ -4,7 +4,7 @@
 ``fingertip``. Handlers return an exit code: 0 done, 1 failed part-way, 2 a user error (bad
 folder, file, model or device), each reported as one clear log line. Heavy modules (scipy,
 onnx, onnxruntime) are imported only when a command runs.
-``python -m fingertip.models.classifier_cli train material FOLDER`` runs it on its own.
+``python -m fingertip.cli.classify train material FOLDER`` runs it on its own.
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import math
 import sys
 from collections.abc import Sequence
 
-from ..argtypes import number
+from .argtypes import number
 from ..badfile import FILE_ERRORS, reports_bad_files
 log = logging.getLogger("fingertip")
 
@@ -32,7 +32,7 @@ def _hidden(text: str) -> tuple[int, ...]:
 
 
 def _models(text: str) -> tuple[str, ...]:
-    from .candidates import CANDIDATES
+    from ..models.candidates import CANDIDATES
 
     out = tuple(v.strip() for v in text.split(",") if v.strip())
     bad = [v for v in out if v not in CANDIDATES]
@@ -44,8 +44,8 @@ def _models(text: str) -> tuple[str, ...]:
 
 def _user_errors():
     from ..audio import AudioError
-    from .classify import DatasetError, ModelError
-    from .features import FeatureError
+    from ..models.classify import DatasetError, ModelError
+    from ..models.features import FeatureError
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
@@ -88,9 +88,9 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     whole recording), candidate models (a log-spectrum logistic-regression baseline,
     logistic regression on log bands, an MLP) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
-    from .classify import json_safe
-    from .features import FeatureConfig
-    from .material import train_material
+    from ..models.classify import json_safe
+    from ..models.features import FeatureConfig
+    from ..models.material import train_material
 
     try:
         r = train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
@@ -148,9 +148,9 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
-    from .classify import json_safe
-    from .features import FeatureConfig
-    from .shake import train_shake
+    from ..models.classify import json_safe
+    from ..models.features import FeatureConfig
+    from ..models.shake import train_shake
 
     models = ("cnn", "mlp") if args.model == "both" else (args.model,)
     try:
@@ -210,7 +210,7 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
     paired with a fingertip's serial port, or the virtual fingertip) with a model made by
     `fingertip train`: one prediction per window with its time, then the majority vote."""
-    from .classify import Classification, VibrationClassifier
+    from ..models.classify import Classification, VibrationClassifier
 
     sources = [s for s in (args.file, args.audio, args.port, args.simulate) if s is not None]
     if len(sources) != 1:
@@ -240,7 +240,7 @@ def _cmd_classify(args: argparse.Namespace) -> int:
                                         not args.fast, args.seed)
             else:
                 from ..audio import SoundDeviceSource
-                from .classify import sound_card_for_port
+                from ..device.pairing import sound_card_for_port
 
                 device = args.audio
                 if args.port is not None:
@@ -313,7 +313,7 @@ def _open_forces(port: str, path: str):
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from .force_load import ForceWindow, ModelMismatch, force_model_for
+    from ..models.force_load import ForceWindow, ModelMismatch, force_model_for
 
     try:
         ft = Fingertip(port).open()

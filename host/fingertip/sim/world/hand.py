@@ -10,16 +10,12 @@ calibration sweep (cached on disk, about 0.7 s per unit the first time).
 
 Time is simulated: one :meth:`SimHand.read` advances the world by one sensor period. The
 arm logs its height at every step (:meth:`SimArm.z_history`), and each fingertip's contact
-microphone is rendered only for the scenes a world starts (:mod:`.sim_audio`):
-:mod:`.sim_cups` and :mod:`.sim_boxes` build the cup stack and the two boxes on this world.
+microphone is rendered only for the scenes a world starts (:mod:`.audio_bus`):
+:mod:`.cups` and :mod:`.boxes` build the cup stack and the two boxes on this world.
 """
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import tempfile
-import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -27,15 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..device import Frame
-from ..sim.physics import AudioChain, VirtualStrainSensor, calibration_sweep
-from .interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
-from .sim_audio import AudioBus
+from ...device import Frame
+from ..physics import AudioChain, VirtualStrainSensor, calibration_sweep
+from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
+from .audio_bus import AudioBus
+from .cache import cached
 
 RATE_SPS = 80
 FINGERS = ("f0", "f1", "f2", "f3")
 _TARE_SAMPLES = 16
-_lock = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -51,25 +47,18 @@ TOFU = ObjectSpec("tofu", stiffness_n_per_mm=0.25, crush_n=1.5, mass_kg=0.012)
 CHIP = ObjectSpec("chip", stiffness_n_per_mm=3.0, crush_n=0.4, mass_kg=0.002)
 
 
-def cache_dir() -> Path:
-    """Where fitted per-unit force models are kept (``FINGERTIP_TASKS_CACHE`` overrides)."""
-    d = os.environ.get("FINGERTIP_TASKS_CACHE")
-    return Path(d) if d else Path(tempfile.gettempdir()) / "fingertip-tasks-models"
-
-
-def _tare(sensor: VirtualStrainSensor, t0: float = 0.0) -> np.ndarray:
+def tare_counts(sensor: VirtualStrainSensor, t0: float = 0.0) -> np.ndarray:
     t = t0 + np.arange(1, _TARE_SAMPLES + 1) / sensor.rate_sps
     return sensor.counts_batch(np.zeros((_TARE_SAMPLES, 2)), 0.0, t).mean(axis=0)
 
 
 def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
-    from .. import __version__
-    from ..models.calibrate import fit_calibration, from_arrays
-    from ..models.fit_cache import fit_key
-    from ..models.force import ForceModel
-    from .. import models
-    from ..sim import physics
+    from ... import __version__, models
+    from ...models.calibrate import fit_calibration, from_arrays
+    from ...models.fit_cache import fit_key
+    from ...models.force import ForceModel
+    from .. import physics
 
     fit = {"unit_seed": unit_seed, "rate_sps": RATE_SPS, "tare_samples": _TARE_SAMPLES,
            "models": "mlp16x16", "epochs": 300, "t0_us": 1_000_000}
@@ -77,22 +66,16 @@ def unit_force_model(unit_seed: int):
     # model fitted by older code is never reused (it was, with the unit's seed alone).
     key = fit_key(fit, [Path(__file__), Path(physics.__file__).parent,
                         Path(models.__file__).parent], __version__)
-    out = cache_dir() / f"unit{unit_seed}-{key}"
-    onnx = out / "force.onnx"
-    with _lock:
-        if not onnx.is_file():
-            sensor = VirtualStrainSensor(unit_seed, rate_sps=RATE_SPS)
-            tare = _tare(sensor)
-            sw = calibration_sweep(sensor, seed=unit_seed, t0_us=fit["t0_us"])
-            data = from_arrays(sw.counts - tare, sw.fx, sw.fy, angle_deg=sw.angle_deg,
-                               height_mm=sw.height_mm, trial=sw.trial)
-            cache_dir().mkdir(parents=True, exist_ok=True)
-            tmp = Path(tempfile.mkdtemp(prefix=f"unit{unit_seed}-", dir=cache_dir()))
-            fit_calibration(data, tmp, models=fit["models"], epochs=fit["epochs"], plot=False)
-            if out.exists():
-                shutil.rmtree(out)
-            os.replace(tmp, out)
-        return ForceModel(onnx)
+
+    def build(folder: Path) -> None:
+        sensor = VirtualStrainSensor(unit_seed, rate_sps=RATE_SPS)
+        tare = tare_counts(sensor)
+        sw = calibration_sweep(sensor, seed=unit_seed, t0_us=fit["t0_us"])
+        data = from_arrays(sw.counts - tare, sw.fx, sw.fy, angle_deg=sw.angle_deg,
+                           height_mm=sw.height_mm, trial=sw.trial)
+        fit_calibration(data, folder, models=fit["models"], epochs=fit["epochs"], plot=False)
+
+    return ForceModel(cached(f"unit{unit_seed}-{key}", "force.onnx", build))
 
 
 @dataclass
@@ -222,7 +205,7 @@ class SimHand(RobotHand):
         self._sensors = {f: VirtualStrainSensor(unit_seeds[f], rate_sps=RATE_SPS)
                          for f in FINGERS}
         self._models = {f: unit_force_model(unit_seeds[f]) for f in FINGERS}
-        self._tares = {f: _tare(s, world.t_s - 1.0) for f, s in self._sensors.items()}
+        self._tares = {f: tare_counts(s, world.t_s - 1.0) for f, s in self._sensors.items()}
         self._seq = 0
 
     @property
@@ -299,7 +282,7 @@ class SimArm(RobotArm):
 
     def shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
         """A kinematic x(t) = A sin(2 pi f t); a world holding a box makes its contents
-        sound (:mod:`.sim_boxes`)."""
+        sound (:mod:`.boxes`)."""
         if amplitude_mm <= 0 or frequency_hz <= 0 or duration_s <= 0:
             raise ValueError("amplitude, frequency and duration must be > 0")
         self.world.start_shake(amplitude_mm, frequency_hz, duration_s)

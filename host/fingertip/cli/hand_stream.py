@@ -7,9 +7,9 @@ import logging
 import sys
 import time
 
-from .device import FingertipError
+from ..device import FingertipError
 from .frame_text import frame_json, frame_line
-from .hand_args import HandSpec
+from ..hand_args import HandSpec
 
 log = logging.getLogger("fingertip")
 

@@ -1,37 +1,22 @@
-"""The ``fingertip`` command line: thin, it parses arguments and calls the library."""
+"""``fingertip decode | flash | devices | info | tare | stream``: one fingertip's wire bytes,
+firmware and live stream. Handlers return an exit code: 0 done, 1 errors were counted, 2 a
+user error (wrong port, file, argument), each reported as one clear log line.
+"""
 from __future__ import annotations
 
 import argparse
 import json
 import logging
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
-from . import __version__
-from .argtypes import dispatch
-from .device import Fingertip, FingertipError
-from .flash import FlashError, flash
-from .sim.faults import FAULTS
-from .check import cli as check_cli
+from ..device import Fingertip, FingertipError
+from ..flash import FlashError, flash
+from ..hand_args import add_hand_args, hand_spec_from_args
+from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
+from ..transport import DeviceNotFound, TransportError, list_ports
 from .frame_text import frame_json, frame_line
-from .hand_args import add_hand_args, hand_spec_from_args
 from .hand_stream import stream_hand
-from .models import calibration_cli, classifier_cli
-from .network import cli as network_cli
-from .record import cli as record_cli
-from .tasks import cli as tasks_cli
-from .protocol import (
-    PROTOCOL_MAJOR,
-    PROTOCOL_MINOR,
-    ProtocolVersionError,
-    RejectedCommand,
-    StreamDecoder,
-    message_to_dict,
-)
-from .transport import DeviceNotFound, TransportError, list_ports
 
 log = logging.getLogger("fingertip")
 
@@ -175,7 +160,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
 
     plot = None
     if args.plot or args.plot_png:
-        from .live_plot import LivePlot, NoDisplay
+        from ..live_plot import LivePlot, NoDisplay
 
         try:
             plot = LivePlot(4, png=args.plot_png)  # channels fixed below, once known
@@ -185,7 +170,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     with _open(args) as ft:
         fm = None
         if args.force_model:
-            from .models.force_load import ModelMismatch, force_model_for
+            from ..models.force_load import ModelMismatch, force_model_for
 
             try:
                 fm = force_model_for(ft, args.force_model)
@@ -269,75 +254,6 @@ def _force_text(est) -> str:
     return f"  Fx {est.fx:+7.3f} Fy {est.fy:+7.3f} N{flag}"
 
 
-def _cmd_sim_device(args: argparse.Namespace) -> int:
-    """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
-    import signal
-    import threading
-
-    from .sim import VirtualFirmware
-    from .sim.pty_device import PtyDevice
-    from .sim.physics import Idle, VirtualStrainSensor
-
-    if args.fault:
-        from .sim.bringup import VirtualUnit
-        from .sim.faults import parse_faults
-
-        if args.channels != 4:
-            log.error("--fault needs the 4-channel fingertip")
-            return 2
-        try:
-            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
-        except ValueError as e:
-            log.error("%s", e)
-            return 2
-    else:
-        scene = Idle(duration=1e9)
-        source = VirtualStrainSensor(args.seed).as_source(scene)
-        fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with PtyDevice(fw, link=args.link) as dev:
-        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
-        try:
-            while not stop.wait(0.2):
-                pass
-        except KeyboardInterrupt:
-            pass
-    return 0
-
-
-def _cmd_sim_faults(args: argparse.Namespace) -> int:
-    """List the build faults `fingertip sim device --fault` and `fingertip check --virtual
-    --fault` take."""
-    for name, what in FAULTS.items():
-        print(f"{name:<16} {what}")
-    return 0
-
-
-def _cmd_demo(args: argparse.Namespace) -> int:
-    """The whole chain on a virtual fingertip: physics -> firmware -> bridge -> events -> PNG."""
-    from .demo import run_demo
-
-    device = {"auto": None, "firmware": True, "python": False}[args.device]
-    r = run_demo(args.out, use_firmware=device, seed=args.seed)
-    st = r.stats
-    print(f"device:      {r.device}")
-    print(f"frames:      {st['frames']} (lost {st['frames_lost']}, CRC errors "
-          f"{st['crc_errors']})")
-    print(f"audio:       {st['audio_frames']} samples at {r.fs:.0f} Hz "
-          f"(overruns {st['audio_overflows']})")
-    for e in r.events:
-        print(f"event        {e.time:7.3f} s  {e.kind}")
-    for t0, t1, name in r.materials:
-        print(f"material     {t0:7.3f} - {t1:6.3f} s  {name}")
-    if len(r.forces):
-        print(f"peak force   {float(np.max(np.hypot(r.forces[:, 0], r.forces[:, 1]))):.2f} N")
-    print(f"recording:   {r.recording} ({st['recording_messages']} messages, dropped "
-          f"{st['recording_dropped']}); try `fingertip replay {r.recording}`")
-    print(f"summary:     {r.png}")
-    return 0
-
-
 def _add_device_args(p: argparse.ArgumentParser):
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--port", help="serial port of the fingertip, e.g. /dev/ttyACM0")
@@ -345,16 +261,8 @@ def _add_device_args(p: argparse.ArgumentParser):
     return g
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="fingertip",
-        description="Host bridge of the open-source multi-modal tactile fingertip.")
-    p.add_argument("--version", action="version",
-                   version=f"fingertip {__version__} (wire protocol v{PROTOCOL_MAJOR}."
-                           f"{PROTOCOL_MINOR})")
-    p.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
-
+def add_parsers(sub) -> None:
+    """Add decode, flash, devices, info, tare and stream to the ``fingertip`` subparsers."""
     d = sub.add_parser("decode", help="decode a capture of raw wire bytes and count errors",
                        description=_cmd_decode.__doc__)
     d.add_argument("file", help="file of raw bytes as read from the serial port ('-' = stdin)")
@@ -413,44 +321,3 @@ def build_parser() -> argparse.ArgumentParser:
                     help="forces in newtons from this calibration (`calibrate fit|record`): "
                          "on the live line, in the JSON and in the plot")
     st.set_defaults(func=_cmd_stream)
-
-    dm = sub.add_parser("demo", help="run the whole chain on a virtual fingertip",
-                        description=_cmd_demo.__doc__)
-    dm.add_argument("--out", default="demo-output", help="folder for the outputs")
-    dm.add_argument("--device", choices=("auto", "firmware", "python"), default="auto",
-                    help="firmware = the real ELF in simavr; python = its twin; auto = "
-                         "firmware when built")
-    dm.add_argument("--seed", type=int, default=7, help="which virtual unit")
-    dm.set_defaults(func=_cmd_demo)
-
-    sm = sub.add_parser("sim", help="the virtual fingertip (no hardware needed)")
-    smsub = sm.add_subparsers(dest="sim_command", metavar="SIM_COMMAND", required=True)
-    sd = smsub.add_parser("device", help="serve a virtual fingertip on a pseudo-terminal",
-                          description=_cmd_sim_device.__doc__)
-    sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
-    sd.add_argument("--link", help="also make this path a symlink to the pty")
-    sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
-    sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
-                    help="a build fault (repeatable): " + ", ".join(FAULTS))
-    sd.set_defaults(func=_cmd_sim_device)
-    sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
-                          description=_cmd_sim_faults.__doc__)
-    sf.set_defaults(func=_cmd_sim_faults)
-    from .sim.cli import add_parsers as add_sim_parsers
-
-    add_sim_parsers(smsub)
-    record_cli.add_parsers(sub)
-    calibration_cli.add_parsers(sub)
-    check_cli.add_parsers(sub)
-    classifier_cli.add_parsers(sub)
-    tasks_cli.add_parsers(sub)
-    network_cli.add_parsers(sub)
-    return p
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return dispatch(build_parser(), argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

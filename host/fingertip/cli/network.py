@@ -10,10 +10,10 @@ import sys
 import time
 from typing import Any
 
-from ..argtypes import number
 from ..hand_args import add_hand_args, hand_audio_from_args, hand_spec_from_args
-from . import ExtraMissing
-from .record_cli import Stopper, record_from
+from ..network import ExtraMissing
+from ..network.record_cli import Stopper, record_from
+from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -55,14 +55,14 @@ def _names(args: argparse.Namespace, n: int) -> list[str]:
 
 def make_transport(kind: str, args: argparse.Namespace):
     if kind == "dds":
-        from .dds import DdsTransport
+        from ..network.dds import DdsTransport
 
         return DdsTransport()
     if kind == "zenoh":
-        from .zenoh import ZenohTransport
+        from ..network.zenoh import ZenohTransport
 
         return ZenohTransport(args.zenoh_connect, args.zenoh_listen)
-    from .lsl import LslTransport
+    from ..network.lsl import LslTransport
 
     return LslTransport()
 
@@ -73,7 +73,7 @@ def _open_sources(args, stack: contextlib.ExitStack, hand=None) -> list[Any]:
     from ..device import Fingertip
 
     if hand is not None:
-        from .hand import open_fingers
+        from ..network.hand import open_fingers
 
         return open_fingers(hand, stack)
     if args.replay:
@@ -105,7 +105,7 @@ def _audio_source(args):
 
     if args.audio is not None:
         if args.audio == "paired":  # the card behind the same USB hub as the fingertip
-            from ..models.classify import sound_card_for_port
+            from ..device.pairing import sound_card_for_port
 
             if not args.port:
                 raise ValueError("--audio paired needs --port (the sound card is found "
@@ -133,8 +133,8 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..protocol import ProtocolVersionError
     from ..record.recorder import Recorder, RecorderError
     from ..transport import DeviceNotFound, TransportError
-    from .feed import Feed
-    from .hand import hand_conflict, pump_hand_audio
+    from ..network.feed import Feed
+    from ..network.hand import hand_conflict, pump_hand_audio
 
     try:
         hand = hand_spec_from_args(args)
@@ -149,7 +149,7 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                   "--audio-file or --virtual-audio")
         return 2
     try:
-        from ..record.cli import load_force_model
+        from .record import load_force_model
 
         force_model = load_force_model(args.force_model) if args.force_model else None
         classifiers = _load_classifiers(args)

@@ -3,7 +3,7 @@
 :func:`add_parsers` adds the three subcommands to the ``fingertip`` command's subparsers.
 Handlers return an exit code: 0 done, 1 the recording failed part-way (disk full...),
 2 a user error (wrong port, file, argument), each reported as one clear log line.
-``python -m fingertip.record`` runs these three on their own.
+``python -m fingertip.cli.record`` runs these on their own.
 """
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..argtypes import dispatch, number
+from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
-from ..frame_text import frame_json, frame_line
+from .frame_text import frame_json, frame_line
 from ..hand_args import add_hand_args, hand_spec_from_args
 log = logging.getLogger("fingertip")
 
@@ -60,8 +60,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from .recorder import Recorder, RecorderError
-    from .schemas import check_name
+    from ..record.recorder import Recorder, RecorderError
+    from ..record.schemas import check_name
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
@@ -93,7 +93,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
         log.error("%s", e)
         return 2
     if spec is not None:
-        from .hand_record import record_hand
+        from ..record.hand_record import record_hand
 
         return record_hand(args, spec, force_model, out)
 
@@ -235,8 +235,8 @@ def _record_loop(args, ft, rec, audio, name: str, out: Path) -> int:
 def _cmd_replay(args: argparse.Namespace) -> int:
     """Play a recording through the same frame interface as a live device and print its
     frames as `fingertip stream` does."""
-    from .reader import RecordingError
-    from .replay import Replay
+    from ..record.reader import RecordingError
+    from ..record.replay import Replay
 
     try:
         rp = Replay(args.file, args.name,
@@ -273,8 +273,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     """Write a recording's frames (CSV per fingertip), audio (WAV per stream) and events
     (CSV) into a folder."""
-    from .export import ExportError, export
-    from .reader import RecordingError
+    from ..record.export import ExportError, export
+    from ..record.reader import RecordingError
 
     try:
         res = export(args.file, args.output)
@@ -302,7 +302,7 @@ def _cmd_repair(args: argparse.Namespace) -> int:
     """Write a complete, indexed copy of a recording cut short (a killed recorder, a full
     disk) or damaged: every complete message is kept, what was lost is reported. Any MCAP
     reader opens the copy, including the mcap package's make_reader."""
-    from .repair import repair
+    from ..record.repair import repair
 
     try:
         res = repair(args.file, args.output, overwrite=args.force)
@@ -402,7 +402,7 @@ def add_parsers(sub) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fingertip.record record|replay|export|repair ...``"""
+    """``python -m fingertip.cli.record record|replay|export|repair ...``"""
     parser = argparse.ArgumentParser(prog="fingertip",
                                      description="Record, replay and export fingertip data.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")

@@ -1,9 +1,11 @@
-"""``fingertip sim dataset calibration|vibration OUT``: datasets from the virtual fingertip.
+"""``fingertip sim device | faults | dataset``: the virtual fingertip on a pty, its build
+faults, and datasets from it.
 
-:func:`add_parsers` adds ``dataset`` to the subparsers of ``fingertip sim``. Handlers return
+:func:`add_group` adds ``fingertip sim`` with all three; :func:`add_parsers` adds ``dataset``
+to the subparsers of ``fingertip sim``. Handlers return
 an exit code: 0 done, 1 the writing failed part-way (disk full...), 2 a user error (bad
 argument, output folder not empty or not writable), each reported as one clear log line.
-``python -m fingertip.sim.cli dataset ...`` runs it on its own.
+``python -m fingertip.cli.sim dataset ...`` runs it on its own.
 """
 from __future__ import annotations
 
@@ -12,9 +14,56 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from ..argtypes import number
+from .argtypes import number
 from ..badfile import reports_bad_files
+from ..sim.faults import FAULTS
+
 log = logging.getLogger("fingertip")
+
+
+def _cmd_sim_device(args: argparse.Namespace) -> int:
+    """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
+    import signal
+    import threading
+
+    from ..sim import VirtualFirmware
+    from ..sim.pty_device import PtyDevice
+    from ..sim.physics import Idle, VirtualStrainSensor
+
+    if args.fault:
+        from ..sim.bringup import VirtualUnit
+        from ..sim.faults import parse_faults
+
+        if args.channels != 4:
+            log.error("--fault needs the 4-channel fingertip")
+            return 2
+        try:
+            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
+        except ValueError as e:
+            log.error("%s", e)
+            return 2
+    else:
+        scene = Idle(duration=1e9)
+        source = VirtualStrainSensor(args.seed).as_source(scene)
+        fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with PtyDevice(fw, link=args.link) as dev:
+        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+        try:
+            while not stop.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def _cmd_sim_faults(args: argparse.Namespace) -> int:
+    """List the build faults `fingertip sim device --fault` and `fingertip check --virtual
+    --fault` take."""
+    for name, what in FAULTS.items():
+        print(f"{name:<16} {what}")
+    return 0
 
 
 def _report(res, what: str) -> None:
@@ -29,7 +78,7 @@ def _cmd_calibration(args: argparse.Namespace) -> int:
     heights 0..5 mm, indentation steps of 1.5 mm to 30 mm, loading and unloading, 8 s pauses)
     on virtual units: one CSV per unit, in the layout of `fingertip export`, with the true
     forces."""
-    from .dataset import DatasetError, write_calibration
+    from ..sim.dataset import DatasetError, write_calibration
 
     try:
         res = write_calibration(
@@ -50,7 +99,7 @@ def _cmd_vibration(args: argparse.Namespace) -> int:
     """Simulate labelled contact-microphone recordings: one sub-folder per class of WAV
     files (materials: the paper's seven; shake: screws / rubber_bands / empty; cups: slides
     over a 5-cup stack with rim times and robot Z), and a manifest CSV."""
-    from .dataset import DatasetError, write_vibration
+    from ..sim.dataset import DatasetError, write_vibration
 
     try:
         res = write_vibration(
@@ -71,7 +120,7 @@ def _cmd_vibration(args: argparse.Namespace) -> int:
 def add_parsers(sub) -> None:
     """Add ``dataset`` (with ``calibration`` and ``vibration``) to ``sub``, the subparsers
     of ``fingertip sim``."""
-    from .dataset import DEFAULT_RECORDINGS, FORMATS, KINDS, MAX_RATE_HZ, MIN_RATE_HZ
+    from ..sim.dataset import DEFAULT_RECORDINGS, FORMATS, KINDS, MAX_RATE_HZ, MIN_RATE_HZ
 
     d = sub.add_parser("dataset", help="write simulated calibration sweeps or labelled "
                                        "vibration recordings",
@@ -128,8 +177,26 @@ def add_parsers(sub) -> None:
     v.set_defaults(func=_cmd_vibration)
 
 
+def add_group(sub) -> None:
+    """Add ``sim`` (device, faults, dataset) to the ``fingertip`` subparsers."""
+    sm = sub.add_parser("sim", help="the virtual fingertip (no hardware needed)")
+    smsub = sm.add_subparsers(dest="sim_command", metavar="SIM_COMMAND", required=True)
+    sd = smsub.add_parser("device", help="serve a virtual fingertip on a pseudo-terminal",
+                          description=_cmd_sim_device.__doc__)
+    sd.add_argument("--channels", type=int, default=4, choices=range(1, 17), metavar="1-16")
+    sd.add_argument("--link", help="also make this path a symlink to the pty")
+    sd.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
+                    help="a build fault (repeatable): " + ", ".join(FAULTS))
+    sd.set_defaults(func=_cmd_sim_device)
+    sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
+                          description=_cmd_sim_faults.__doc__)
+    sf.set_defaults(func=_cmd_sim_faults)
+    add_parsers(smsub)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m fingertip.sim.cli dataset calibration|vibration OUT ...``"""
+    """``python -m fingertip.cli.sim dataset calibration|vibration OUT ...``"""
     parser = argparse.ArgumentParser(prog="fingertip sim",
                                      description="The virtual fingertip's datasets.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
