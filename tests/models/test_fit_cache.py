@@ -96,3 +96,18 @@ def test_unit_force_model_is_cached_under_its_key(tmp_path: Path,
     made = [p.name for p in tmp_path.iterdir() if p.name.startswith("unit100-")]
     assert len(made) == 1 and len(made[0]) == len("unit100-") + fit_cache.KEY_CHARS
     assert m.path.parent.name == made[0]
+
+
+def test_shake_model_is_cached_under_its_key(tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    """The simulated world's shake classifier is keyed like the force models: a stale entry
+    named by its seed and size alone (the old layout) is not used."""
+    from fingertip.sim.world import boxes
+
+    monkeypatch.setenv("FINGERTIP_TASKS_CACHE", str(tmp_path))
+    stale = tmp_path / f"shake-mlp-{boxes.SHAKE_MODEL_SEED}-2"
+    stale.mkdir()
+    (stale / "shake_mlp.onnx").write_bytes(b"stale")
+    path = boxes.shake_model_path(recordings_per_class=2)
+    assert path.parent != stale and path.read_bytes() != b"stale"
+    assert len(path.parent.name) == len(stale.name) + 1 + fit_cache.KEY_CHARS
