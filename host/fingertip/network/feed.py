@@ -142,12 +142,20 @@ class Feed:
         self._send(name, "info", info if isinstance(info, str) else json.dumps(info, default=str))
 
     def pump_audio(self, source: AudioSource, name: str, max_seconds: float = 0.1,
-                   also: Callable[[str, Chunk], Any] | None = None) -> threading.Thread:
+                   also: Callable[[str, Chunk], Any] | None = None,
+                   min_seconds: float = 0.02) -> threading.Thread:
         """Read ``source`` on a thread and publish its chunks until :meth:`close` (and hand
-        each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``)."""
+        each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``).
+
+        Chunks hold at least ``min_seconds`` of audio while the source runs: a sound card
+        delivers blocks of a few ms, and each message costs the same wake-up, encoding and
+        write whatever its length (rmw and audio_common users take 20 ms chunks in their
+        stride). It adds at most ``min_seconds`` to the audio's latency; sample indices and
+        host times are those of the card either way."""
         if not source.running and not source.finished:
             source.start()
         max_frames = max(1, int(source.sample_rate * max_seconds))
+        min_s = max(0.0, min(min_seconds, max_seconds))
 
         def pump() -> None:
             try:
@@ -160,6 +168,9 @@ class Feed:
                     self.audio(name, chunk)
                     if also is not None:
                         also(name, chunk)
+                    short = min_s - chunk.frames / source.sample_rate
+                    if short > 0 and source.running:  # let the next chunk fill up
+                        self._stop.wait(short)
             except Exception as e:  # a broken sound card is an event, not a dead publisher
                 log.error("audio %s: %s", name, e)
                 self.event(name, "audio_error", detail=str(e))
