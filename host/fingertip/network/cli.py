@@ -124,7 +124,7 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..audio import AudioError
     from ..device import FingertipError
     from ..protocol import ProtocolVersionError
-    from ..record.recorder import Recorder, RecorderError
+    from ..record.recorder import Recorder, RecorderError, device_info
     from ..transport import DeviceNotFound, TransportError
     from .feed import Feed
 
@@ -169,8 +169,9 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             timebase = sources[0].recording.timebase  # the recording's own stamps
         feed = Feed(transport, timebase=timebase)
         stack.callback(feed.close)
-        for name in names:  # publishers first, so that subscribers can find them
-            feed.add_fingertip(name, force_model)
+        # Publishers first, so that subscribers can find them.
+        for src, name in zip(sources, names, strict=True):
+            feed.add_fingertip(name, force_model, device_info(src, name))
         _serve_services(args, transport, feed, rec, sources, names)
         if audio is not None and hasattr(transport, "declare_audio"):
             from ..record.schemas import AUDIO_ENCODINGS

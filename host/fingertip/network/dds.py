@@ -320,7 +320,8 @@ class DdsTransport:
         self.services: dict[str, ServiceStats] = {}
         self._clock: Callable[[bytes], None] | None = None
 
-    def add_fingertip(self, name: str) -> None:
+    def add_fingertip(self, name: str, info: dict | None = None) -> None:
+        """Writers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
         S = self._S
         for kind, schema in S.TOPIC_KINDS.items():
             self._writers[name, kind] = self.node.writer(

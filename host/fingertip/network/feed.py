@@ -31,8 +31,10 @@ ForceModel = Callable[[Sequence[int]], Sequence[float]]
 class Transport(Protocol):
     """Where a feed's messages go (DDS, Zenoh, LSL...)."""
 
-    def add_fingertip(self, name: str) -> None:
-        """Declare fingertip ``name`` (its publishers are made here)."""
+    def add_fingertip(self, name: str, info: dict[str, Any] | None = None) -> None:
+        """Declare fingertip ``name`` (its publishers are made here); ``info``: what its
+        ``info`` topic will say (:func:`device_info`), for transports that describe a
+        stream up front (LSL: channels, rate), None when unknown."""
 
     def publish(self, name: str, kind: str, msg: Any) -> None:
         """Publish ``msg`` (a :mod:`~fingertip.record.schemas` message object, or the info
@@ -66,20 +68,24 @@ class Feed:
         self._stop = threading.Event()
         self._told: set[str] = set()
 
-    def add_fingertip(self, name: str, force_model: ForceModel | None = None) -> None:
+    def add_fingertip(self, name: str, force_model: ForceModel | None = None,
+                      info: dict[str, Any] | None = None) -> None:
+        """Declare fingertip ``name``; ``info`` (:func:`device_info` of its source) lets
+        the transport describe its streams before the first frame."""
         S.check_name(name)
         if name in self._models:
             raise ValueError(f"a fingertip named {name!r} is already published")
         self._models[name] = force_model
-        self.transport.add_fingertip(name)
+        self.transport.add_fingertip(name, info)
 
     def attach(self, fingertip: Any, name: str, force_model: ForceModel | None = None) -> None:
         """Publish every frame of ``fingertip`` (a Fingertip, a Replay: any frame source
         with callbacks), its info now, and forces if a model is given."""
+        info = device_info(fingertip, name)
         if name not in self._models:  # not declared beforehand with add_fingertip
-            self.add_fingertip(name, force_model)
+            self.add_fingertip(name, force_model, info)
         self._models[name] = force_model
-        self.info(name, device_info(fingertip, name))
+        self.info(name, info)
 
         def on_frame(frame: Frame, _n: str = name) -> None:
             self.frame(_n, frame)
@@ -156,6 +162,7 @@ class Feed:
             source.start()
         max_frames = max(1, int(source.sample_rate * max_seconds))
         min_s = max(0.0, min(min_seconds, max_seconds))
+        min_frames = int(source.sample_rate * min_s)
 
         def pump() -> None:
             try:
@@ -168,9 +175,12 @@ class Feed:
                     self.audio(name, chunk)
                     if also is not None:
                         also(name, chunk)
-                    short = min_s - chunk.frames / source.sample_rate
-                    if short > 0 and source.running:  # let the next chunk fill up
-                        self._stop.wait(short)
+                    if min_frames and source.running:
+                        # Read again once the next min_frames have been captured (plus
+                        # a moment for the card to hand over its block); never longer
+                        # than min_s, whatever clock a replayed chunk's times are on.
+                        due = chunk.time_of(chunk.end_index + min_frames) + 0.002
+                        self._stop.wait(min(min_s, max(0.0, due - time.monotonic())))
             except Exception as e:  # a broken sound card is an event, not a dead publisher
                 log.error("audio %s: %s", name, e)
                 self.event(name, "audio_error", detail=str(e))

@@ -257,7 +257,8 @@ class ZenohTransport:
         self._pubs: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
 
-    def add_fingertip(self, name: str) -> None:
+    def add_fingertip(self, name: str, info: dict | None = None) -> None:
+        """Publishers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
         for kind, schema in S.TOPIC_KINDS.items():
             self._pubs[name, kind] = self.node.publisher(
                 S.topic(name, kind), schema, KIND_QOS[kind],
