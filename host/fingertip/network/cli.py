@@ -67,7 +67,7 @@ def make_transport(kind: str, args: argparse.Namespace):
 
 def _open_sources(args, stack: contextlib.ExitStack) -> list[Any]:
     """The fingertips to publish: opened devices, virtual ones on ptys, or a replay."""
-    from ..device import Fingertip
+    from ..device import Fingertip, SharedReader
 
     if args.replay:
         from ..record.replay import Replay
@@ -88,8 +88,13 @@ def _open_sources(args, stack: contextlib.ExitStack) -> list[Any]:
             ports.append(dev.port)
     else:
         ports = args.port or []
-    fts = [stack.enter_context(Fingertip(p).open()) for p in ports]
-    fts += [stack.enter_context(Fingertip(serial_number=s).open()) for s in args.serial or []]
+    # The feed takes frames by callback (no queue), all ports read on one thread.
+    reader = SharedReader()
+    stack.callback(reader.close)
+    fts = [stack.enter_context(Fingertip(p, queue_size=0, reader=reader).open())
+           for p in ports]
+    fts += [stack.enter_context(Fingertip(serial_number=s, queue_size=0, reader=reader).open())
+            for s in args.serial or []]
     return fts
 
 
