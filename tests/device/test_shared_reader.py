@@ -86,8 +86,3 @@ def test_unplugged_device_reconnects_and_returns_to_the_shared_thread(devices):
         assert a.stats.reconnects == 1
         assert wait_for(lambda: _reader_threads() == ["fingertip-reader-shared"], 2.0)
     reader.close()
-
-
-def test_queue_size_below_zero_is_refused():
-    with pytest.raises(ValueError, match="queue_size"):
-        Fingertip("/dev/null", queue_size=-1)
