@@ -111,7 +111,7 @@ def test_commands_name_their_allowed_values(device):
 
 
 @pytest.mark.parametrize("kw, match", [
-    ({"queue_size": 0}, "queue_size"), ({"retries": -1}, "retries"),
+    ({"queue_size": -1}, "queue_size"), ({"retries": -1}, "retries"),
     ({"command_timeout": 0}, "command_timeout"),
     ({"open_timeout": float("nan")}, "open_timeout"),
 ])

@@ -176,6 +176,7 @@ BLOCK = ("import sys; sys.modules[{mod!r}] = None; from fingertip.cli import mai
     ("pylsl", ["publish", "--virtual", "1", "--transport", "lsl", "--duration", "1"], "lsl"),
     ("zenoh", ["record", "--from", "zenoh", "-o", "{out}"], "zenoh"),
     ("cyclonedds", ["record", "--from", "dds", "-o", "{out}"], "ros"),
+    ("pylsl", ["record", "--from", "lsl", "-o", "{out}"], "lsl"),
 ])
 def test_missing_extra_is_one_line_and_exit_2(tmp_path, mod, argv, extra):
     argv = [a.replace("{out}", str(tmp_path / "x.mcap")) for a in argv]

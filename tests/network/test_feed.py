@@ -19,7 +19,7 @@ class ListSink:
         self.got: list[tuple[str, str, bytes]] = []
         self.fail_kinds = set(fail_kinds)
 
-    def add_fingertip(self, name: str) -> None:
+    def add_fingertip(self, name: str, info=None) -> None:
         pass
 
     def publish(self, name: str, kind: str, msg) -> None:
@@ -79,3 +79,24 @@ def test_audio_of_an_unsupported_dtype_is_counted():
     assert [k for _, k, _ in sink.got] == ["audio"] and feed.errors["audio"] == 1
     m = S.decode_audio(sink.got[0][2])
     assert (m.encoding, m.frames, m.data) == ("S16LE", 4, b"\0" * 8)
+
+
+def test_audio_is_published_in_chunks_of_at_least_20_ms_without_gaps():
+    from fingertip.audio import SimulatedSource
+
+    sink = ListSink()
+    feed = Feed(sink, timebase=TimeBase(0))
+    feed.add_fingertip("index")
+    # 10 ms blocks, as a sound card delivers them.
+    src = SimulatedSource(lambda t: 0.1 * np.sin(t), 8000.0, dtype="int16", blocksize=80,
+                          duration=0.6)
+    feed.pump_audio(src, "index", min_seconds=0.02).join(timeout=10)
+    feed.close()
+    msgs = [S.decode_audio(d) for _, k, d in sink.got if k == "audio"]
+    assert sum(m.frames for m in msgs) == 4800
+    assert [m.first_index for m in msgs] == list(np.cumsum([0] + [m.frames for m in msgs])[:-1])
+    # Chunks hold at least 20 ms (a busy machine may hand a block over late now and then;
+    # every block on its own would make 60 messages).
+    full = sum(m.frames >= 160 for m in msgs[:-1])
+    assert full >= 0.8 * (len(msgs) - 1), [m.frames for m in msgs]
+    assert len(msgs) <= 36

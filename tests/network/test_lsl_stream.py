@@ -53,3 +53,28 @@ def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
     assert b"".join(m.data for m in au_a) == b"".join(m.data for m in au_b)
     assert sum(m.frames for m in au_a) >= 9 * 44100
     assert {m.sample_rate for m in au_b} == {44100.0}
+
+
+@pytest.mark.slow
+def test_lsl_streams_declare_the_device_rate_channels_and_information():
+    lsl = pytest.importorskip("pylsl")
+    import json
+
+    pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", "index",
+                "--duration", "20")
+    try:
+        wait_line(pub, "publishing")
+        infos = {}
+        for kind in ("raw", "forces", "events"):
+            found = lsl.resolve_byprop("name", f"fingertip/index/{kind}", 1, 10.0)
+            assert found, kind
+            infos[kind] = lsl.StreamInlet(found[0]).info(timeout=10.0)
+    finally:
+        pub.send_signal(signal.SIGINT)
+        pub.communicate(timeout=30)
+    # The virtual fingertip streams 4 channels at 80 frames/s (its INFO says so).
+    assert infos["raw"].nominal_srate() == 80.0 and infos["forces"].nominal_srate() == 80.0
+    assert infos["raw"].channel_count() == 4 + 5
+    assert infos["events"].nominal_srate() == lsl.IRREGULAR_RATE
+    dev = json.loads(infos["raw"].desc().child_value("fingertip"))
+    assert dev["name"] == "index" and dev["info"]["channels"] == 4

@@ -70,7 +70,7 @@ def make_transport(kind: str, args: argparse.Namespace):
 def _open_sources(args, stack: contextlib.ExitStack, hand=None) -> list[Any]:
     """The fingertips to publish: opened devices, virtual ones on ptys, a replay, or the
     fingers of a hand (``hand``: its HandSpec)."""
-    from ..device import Fingertip
+    from ..device import Fingertip, SharedReader
 
     if hand is not None:
         from ..network.hand import open_fingers
@@ -95,8 +95,13 @@ def _open_sources(args, stack: contextlib.ExitStack, hand=None) -> list[Any]:
             ports.append(dev.port)
     else:
         ports = args.port or []
-    fts = [stack.enter_context(Fingertip(p).open()) for p in ports]
-    fts += [stack.enter_context(Fingertip(serial_number=s).open()) for s in args.serial or []]
+    # The feed takes frames by callback (no queue), all ports read on one thread.
+    reader = SharedReader()
+    stack.callback(reader.close)
+    fts = [stack.enter_context(Fingertip(p, queue_size=0, reader=reader).open())
+           for p in ports]
+    fts += [stack.enter_context(Fingertip(serial_number=s, queue_size=0, reader=reader).open())
+            for s in args.serial or []]
     return fts
 
 
@@ -131,7 +136,7 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..audio import AudioError
     from ..device import FingertipError
     from ..protocol import ProtocolVersionError
-    from ..record.recorder import Recorder, RecorderError
+    from ..record.recorder import Recorder, RecorderError, device_info
     from ..transport import DeviceNotFound, TransportError
     from ..network.feed import Feed
     from ..network.hand import hand_conflict, pump_hand_audio
@@ -187,8 +192,9 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             timebase = sources[0].recording.timebase  # the recording's own stamps
         feed = Feed(transport, timebase=timebase)
         stack.callback(feed.close)
-        for name in names:  # publishers first, so that subscribers can find them
-            feed.add_fingertip(name, force_model)
+        # Publishers first, so that subscribers can find them.
+        for src, name in zip(sources, names, strict=True):
+            feed.add_fingertip(name, force_model, device_info(src, name))
         _serve_services(args, transport, feed, rec, sources, names)
         if audio is not None and hasattr(transport, "declare_audio"):
             from ..record.schemas import AUDIO_ENCODINGS

@@ -4,8 +4,9 @@ from .fingertip import (
     Settings,
 )
 from .hand import FingerFrame, Hand
+from .reader import SharedReader
 from .timesync import ClockFit, ClockSync, Unwrapper
 
 __all__ = ["BridgeStats", "ClockFit", "ClockSync", "CommandFailed", "CommandTimeout",
            "FingerFrame", "Fingertip", "FingertipError", "Frame", "Hand", "NotConnected",
-           "Settings", "Unwrapper"]
+           "Settings", "SharedReader", "Unwrapper"]

@@ -1,10 +1,12 @@
 """``Fingertip``: one device, its commands, its frame stream, its counters, its clock.
 
-A background thread reads the port, decodes frames, maps device time to host time and hands
-frames to a bounded queue and to callbacks. Commands wait for their ACK or NACK. When the
-port vanishes (cable pulled, pty closed, simulator restarted) or the device resets, the
-thread reconnects by itself, re-applies rate, gain and tare offsets and resumes streaming,
-and counts it; user loops only ever see it through :attr:`Fingertip.status`.
+A background thread reads the port (its own, or one :class:`SharedReader` for several
+devices), decodes frames, maps device time to host time and hands frames to a bounded queue
+(none with ``queue_size=0``, for consumers that take frames by callback) and to callbacks.
+Commands wait for their ACK or NACK. When the port vanishes (cable pulled, pty closed,
+simulator restarted) or the device resets, the thread reconnects by itself, re-applies
+rate, gain and tare offsets and resumes streaming, and counts it; user loops only ever see
+it through :attr:`Fingertip.status`.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from ..protocol import (
 )
 from ..transport import ByteStream, TransportError, find_port, open_serial
 from .frames import FrameSource
+from .reader import SharedReader, stream_fileno
 from .timesync import ClockSync
 
 log = logging.getLogger(__name__)
@@ -130,7 +133,8 @@ class BridgeStats:
     seq_gaps: int = 0
     frames_lost: int = 0
     overruns: int = 0
-    """Frames dropped because user code did not read the queue fast enough."""
+    """Frames dropped because user code did not read the queue fast enough (never counted
+    with ``queue_size=0``: there is no queue, callbacks get every frame)."""
     reconnects: int = 0
     device_resets: int = 0
     callback_errors: int = 0
@@ -165,6 +169,9 @@ class Fingertip(FrameSource):
 
     Open it by ``port`` (``/dev/ttyACM0``, a pty path, a by-id link) or by the USB
     ``serial_number`` of its Arduino. ``open_stream`` replaces pyserial (tests, files).
+    ``queue_size=0``: no frame queue, frames reach callbacks only (:meth:`read`,
+    :meth:`frames` and :meth:`drain` then raise). ``reader``: a :class:`SharedReader`
+    that reads this port on one thread with other devices' ports.
 
     >>> with Fingertip("/dev/ttyACM0") as ft:           # doctest: +SKIP
     ...     ft.tare(samples=16)
@@ -177,10 +184,10 @@ class Fingertip(FrameSource):
                  baudrate: int | None = None, open_stream: StreamFactory | None = None,
                  queue_size: int = 4096, reconnect: bool = True,
                  command_timeout: float = 0.5, retries: int = 2, open_timeout: float = 4.0,
-                 name: str | None = None) -> None:
+                 name: str | None = None, reader: SharedReader | None = None) -> None:
         if (port is None) == (serial_number is None):
             raise ValueError("give exactly one of port or serial_number")
-        check_int("queue_size", queue_size, 1, 1 << 24)
+        check_int("queue_size", queue_size, 0, 1 << 24)
         check_int("retries", retries, 0, 100)
         if baudrate is not None:
             check_int("baudrate", baudrate, 1, 10_000_000)
@@ -203,7 +210,9 @@ class Fingertip(FrameSource):
         self.settings = Settings()
         self._decoder = StreamDecoder("device")
         self._stream: ByteStream | None = None
-        self._queue: deque[Frame] = deque(maxlen=queue_size)
+        # No queue when nobody reads it: it would only count made-up overruns.
+        self._queue: deque[Frame] | None = deque(maxlen=queue_size) if queue_size else None
+        self._shared = reader
         self._cond = threading.Condition()
         self._callbacks: list[Callable[[Frame], None]] = []
         self._pending: deque[_Pending] = deque()
@@ -256,9 +265,7 @@ class Fingertip(FrameSource):
         self._status = "connected"
         self._ever_opened = True
         self._lost_for_good = False
-        self._reader = threading.Thread(target=self._read_loop, daemon=True,
-                                        name=f"fingertip-reader-{self.name}")
-        self._reader.start()
+        self._start_own_reader()
         self._restorer = threading.Thread(target=self._restore_loop, daemon=True,
                                           name=f"fingertip-restore-{self.name}")
         self._restorer.start()
@@ -278,6 +285,8 @@ class Fingertip(FrameSource):
         self._status = "closed"
         self._connected.clear()
         self._restore_needed.set()
+        if self._shared is not None:
+            self._shared.remove(self)  # it no longer reads the stream closed below
         for t in (self._reader, self._restorer):
             if t and t is not threading.current_thread():
                 t.join(timeout=2)
@@ -370,6 +379,10 @@ class Fingertip(FrameSource):
             why = "was never opened: call open() first (or use `with Fingertip(...)`)"
         return NotConnected(f"{self.name} {why}")
 
+    def _no_queue(self) -> FingertipError:
+        return FingertipError(f"{self.name} was made with queue_size=0: its frames go to "
+                              f"callbacks only (add_callback), nothing queues them to read")
+
     def read(self, timeout: float | None = None) -> Frame | None:
         """The next frame, or None after ``timeout`` seconds without one.
 
@@ -379,6 +392,8 @@ class Fingertip(FrameSource):
         """
         if timeout is not None and not timeout >= 0:
             raise ValueError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
+        if self._queue is None:
+            raise self._no_queue()
         with self._cond:
             if not self._queue:
                 if self._status == "closed":
@@ -404,6 +419,8 @@ class Fingertip(FrameSource):
 
     def drain(self) -> list[Frame]:
         """All frames queued so far, without waiting."""
+        if self._queue is None:
+            raise self._no_queue()
         with self._cond:
             out = list(self._queue)
             self._queue.clear()
@@ -552,6 +569,15 @@ class Fingertip(FrameSource):
 
     # --- reader thread --------------------------------------------------------------------
 
+    def _start_own_reader(self) -> None:
+        """Read on a thread of this device's own (always without a shared reader; with one,
+        while it connects, reconnects or proves its identity)."""
+        if self._closing.is_set():
+            return
+        self._reader = threading.Thread(target=self._read_loop, daemon=True,
+                                        name=f"fingertip-reader-{self.name}")
+        self._reader.start()
+
     def _read_loop(self) -> None:
         while not self._closing.is_set():
             if self._verdict is not None:
@@ -560,6 +586,11 @@ class Fingertip(FrameSource):
             if stream is None:
                 self._reconnect()
                 continue
+            if self._shared is not None and not self._verifying and self._verdict is None:
+                fd = stream_fileno(stream)
+                if fd is not None:  # streaming steadily: the shared thread reads from now on
+                    self._shared.add(self, fd)
+                    return
             try:
                 # The timeout only bounds how long close() waits: data wakes the read at once.
                 data = stream.read(4096, timeout=0.1)
@@ -571,6 +602,23 @@ class Fingertip(FrameSource):
                 continue
             if data:
                 self._handle_bytes(data, time.monotonic())
+
+    def _read_available(self) -> None:
+        """On the shared reader's thread, the port being readable: take what came."""
+        stream = self._stream
+        if stream is None:
+            return
+        data = stream.read(4096, timeout=0)
+        if data:
+            self._handle_bytes(data, time.monotonic())
+
+    def _lost_on_shared(self, e: TransportError) -> None:
+        """The shared reader lost this device's port: reconnect on a thread of its own."""
+        if self._closing.is_set():
+            return
+        log.warning("%s: lost the device (%s); reconnecting", self.name, e)
+        self._lost()
+        self._start_own_reader()
 
     def _lost(self) -> None:
         self._connected.clear()
@@ -632,11 +680,13 @@ class Fingertip(FrameSource):
         self._deliver(frame)
 
     def _deliver(self, frame: Frame) -> None:
-        with self._cond:
-            if len(self._queue) == self._queue.maxlen:
-                self._counters.overruns += 1
-            self._queue.append(frame)
-            self._cond.notify()
+        queue = self._queue
+        if queue is not None:
+            with self._cond:
+                if len(queue) == queue.maxlen:
+                    self._counters.overruns += 1
+                queue.append(frame)
+                self._cond.notify()
         for cb in self._callbacks:
             try:
                 cb(frame)

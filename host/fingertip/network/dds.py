@@ -26,11 +26,11 @@ import os
 import struct
 import threading
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from xml.sax.saxutils import escape
 
 from . import require
 from .ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE, dds_type_name, idl_struct, user_data
+from .trigger import ServiceStats, TriggerServer, trigger_response_cdr
 
 log = logging.getLogger(__name__)
 
@@ -109,16 +109,6 @@ def pad4(data: bytes) -> bytes:
     """Zero padding to a multiple of 4 bytes, as rmw_cyclonedds sends payloads."""
     n = -len(data) % 4
     return data + b"\0" * n if n else data
-
-
-@dataclass
-class ServiceStats:
-    requests: int = 0
-    answered: int = 0
-    refused: int = 0
-    """Malformed, oversized or failing requests (answered with success = false when they
-    carried a readable request id, dropped otherwise)."""
-    reasons: dict[str, int] = field(default_factory=dict)
 
 
 class DdsNode:
@@ -289,44 +279,22 @@ class DdsNode:
         ``(success, message)``. Malformed or oversized requests are refused and counted;
         no request can stop the node.
         """
-        stats = stats or ServiceStats()
         reply = self.writer(f"rr{service}Reply", TRIGGER_RESPONSE, RELIABLE, hashed=False)
-        busy = threading.Lock()
-
-        def refuse(reason: str, req_id: tuple[int, int] | None, text: str) -> None:
-            stats.refused += 1
-            stats.reasons[reason] = stats.reasons.get(reason, 0) + 1
-            log.warning("%s: refused a request (%s)", service, text)
-            if req_id is not None:
-                reply(encode_trigger_reply(req_id, False, text))
-
-        def run(req_id: tuple[int, int]) -> None:
-            try:
-                ok, text = handler()
-            except Exception as e:  # the service reports the failure; the node goes on
-                ok, text = False, f"failed: {e}"
-            finally:
-                busy.release()
-            if not ok:
-                stats.reasons["failed"] = stats.reasons.get("failed", 0) + 1
-            stats.answered += 1
-            reply(encode_trigger_reply(req_id, ok, text))
+        server = TriggerServer(service, handler, stats)
 
         def on_request(data: bytes) -> None:
-            stats.requests += 1
+            server.stats.requests += 1
             req_id, reason, text = check_trigger_request(data)
+
+            def answer(ok: bool, message: str, _id=req_id) -> None:
+                reply(encode_trigger_reply(_id, ok, message))
             if reason is not None:
-                refuse(reason, req_id, text)
+                server.refuse(reason, text, answer if req_id is not None else None)
                 return
-            assert req_id is not None
-            if not busy.acquire(blocking=False):
-                refuse("busy", req_id, "busy: the previous request is still running")
-                return
-            threading.Thread(target=run, args=(req_id,), daemon=True,
-                             name=f"service{service}").start()
+            server.request(answer)
 
         self.reader(f"rq{service}Request", TRIGGER_REQUEST, RELIABLE, on_request, hashed=False)
-        return stats
+        return server.stats
 
     def close(self) -> None:
         self._stop.set()
@@ -352,7 +320,8 @@ class DdsTransport:
         self.services: dict[str, ServiceStats] = {}
         self._clock: Callable[[bytes], None] | None = None
 
-    def add_fingertip(self, name: str) -> None:
+    def add_fingertip(self, name: str, info: dict | None = None) -> None:
+        """Writers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
         S = self._S
         for kind, schema in S.TOPIC_KINDS.items():
             self._writers[name, kind] = self.node.writer(
@@ -448,9 +417,8 @@ def encode_request(req_id: tuple[int, int], body: bytes = b"\0") -> bytes:
 
 def encode_trigger_reply(req_id: tuple[int, int], success: bool, message: str) -> bytes:
     """A std_srvs/srv/Trigger reply sample (little-endian CDR)."""
-    text = message.encode("utf-8") + b"\0"
-    body = bytes([1 if success else 0]) + b"\0\0\0" + struct.pack("<I", len(text)) + text
-    return pad4(b"\x00\x01\x00\x00" + _REQ_ID[b"\x00\x01"].pack(*req_id) + body)
+    return pad4(b"\x00\x01\x00\x00" + _REQ_ID[b"\x00\x01"].pack(*req_id)
+                + trigger_response_cdr(success, message))
 
 
 def decode_trigger_reply(data: bytes) -> tuple[tuple[int, int], bool, str]:

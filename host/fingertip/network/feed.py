@@ -32,8 +32,10 @@ ForceModel = Callable[[Sequence[int]], Sequence[float]]
 class Transport(Protocol):
     """Where a feed's messages go (DDS, Zenoh, LSL...)."""
 
-    def add_fingertip(self, name: str) -> None:
-        """Declare fingertip ``name`` (its publishers are made here)."""
+    def add_fingertip(self, name: str, info: dict[str, Any] | None = None) -> None:
+        """Declare fingertip ``name`` (its publishers are made here); ``info``: what its
+        ``info`` topic will say (:func:`device_info`), for transports that describe a
+        stream up front (LSL: channels, rate), None when unknown."""
 
     def publish(self, name: str, kind: str, msg: Any) -> None:
         """Publish ``msg`` (a :mod:`~fingertip.record.schemas` message object, or the info
@@ -67,20 +69,24 @@ class Feed:
         self._stop = threading.Event()
         self._told: set[str] = set()
 
-    def add_fingertip(self, name: str, force_model: ForceModel | None = None) -> None:
+    def add_fingertip(self, name: str, force_model: ForceModel | None = None,
+                      info: dict[str, Any] | None = None) -> None:
+        """Declare fingertip ``name``; ``info`` (:func:`device_info` of its source) lets
+        the transport describe its streams before the first frame."""
         S.check_name(name)
         if name in self._models:
             raise ValueError(f"a fingertip named {name!r} is already published")
         self._models[name] = force_model
-        self.transport.add_fingertip(name)
+        self.transport.add_fingertip(name, info)
 
     def attach(self, fingertip: Any, name: str, force_model: ForceModel | None = None) -> None:
         """Publish every frame of ``fingertip`` (a Fingertip, a Replay: any frame source
         with callbacks), its info now, and forces if a model is given."""
+        info = device_info(fingertip, name)
         if name not in self._models:  # not declared beforehand with add_fingertip
-            self.add_fingertip(name, force_model)
+            self.add_fingertip(name, force_model, info)
         self._models[name] = force_model
-        self.info(name, device_info(fingertip, name))
+        self.info(name, info)
 
         def on_frame(frame: Frame, _n: str = name) -> None:
             self.frame(_n, frame)
@@ -143,15 +149,23 @@ class Feed:
         self._send(name, "info", info if isinstance(info, str) else json.dumps(info, default=str))
 
     def pump_audio(self, source: AudioSource, name: str, max_seconds: float = 0.1,
-                   also: Callable[[str, Chunk], Any] | None = None) -> threading.Thread:
+                   also: Callable[[str, Chunk], Any] | None = None,
+                   min_seconds: float = 0.02) -> threading.Thread:
         """Read ``source`` on a thread and publish its chunks until :meth:`close` (and hand
-        each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``)."""
-        return self.pump_audio_split(source, [name], max_seconds, also, split=False)
+        each to ``also(name, chunk)``, e.g. a local recorder's ``write_audio``).
+
+        Chunks hold at least ``min_seconds`` of audio while the source runs: a sound card
+        delivers blocks of a few ms, and each message costs the same wake-up, encoding and
+        write whatever its length (rmw and audio_common users take 20 ms chunks in their
+        stride). It adds at most ``min_seconds`` to the audio's latency; sample indices and
+        host times are those of the card either way."""
+        return self.pump_audio_split(source, [name], max_seconds, also, split=False,
+                                     min_seconds=min_seconds)
 
     def pump_audio_split(self, source: AudioSource, names: Sequence[str],
                          max_seconds: float = 0.1,
                          also: Callable[[str, Chunk], Any] | None = None, *,
-                         split: bool = True) -> threading.Thread:
+                         split: bool = True, min_seconds: float = 0.02) -> threading.Thread:
         """As :meth:`pump_audio` for a multi-channel source whose channel k is the
         microphone of fingertip ``names[k]`` (one 4-input interface for a hand): each
         channel is published on its own fingertip's audio topic."""
@@ -161,6 +175,8 @@ class Feed:
         if not source.running and not source.finished:
             source.start()
         max_frames = max(1, int(source.sample_rate * max_seconds))
+        min_s = max(0.0, min(min_seconds, max_seconds))
+        min_frames = int(source.sample_rate * min_s)
 
         def deliver(name: str, chunk: Chunk) -> None:
             self.audio(name, chunk)
@@ -177,9 +193,15 @@ class Feed:
                         continue
                     if not split:
                         deliver(names[0], chunk)
-                        continue
-                    for k, name in enumerate(names):
-                        deliver(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
+                    else:
+                        for k, name in enumerate(names):
+                            deliver(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
+                    if min_frames and source.running:
+                        # Read again once the next min_frames have been captured (plus
+                        # a moment for the card to hand over its block); never longer
+                        # than min_s, whatever clock a replayed chunk's times are on.
+                        due = chunk.time_of(chunk.end_index + min_frames) + 0.002
+                        self._stop.wait(min(min_s, max(0.0, due - time.monotonic())))
             except Exception as e:  # a broken sound card is an event, not a dead publisher
                 log.error("audio %s: %s", ", ".join(names), e)
                 for name in names:

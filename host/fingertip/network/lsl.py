@@ -63,15 +63,24 @@ class LslTransport:
         info.desc().append_child_value("fingertip", self._info.get(name, "{}"))
         return lsl.StreamOutlet(info, 0, 360)
 
-    def add_fingertip(self, name: str) -> None:
+    def add_fingertip(self, name: str, info: dict | None = None) -> None:
+        """Outlets for fingertip ``name``. With ``info`` (:func:`device_info`), forces and
+        raw counts are regular streams at the device's frame rate with its channel count,
+        and the description carries the device information; without, irregular."""
         lsl = self.lsl
-        counts = [f"ch{i}" for i in range(self.channels)]
+        channels, rate = self.channels, lsl.IRREGULAR_RATE
+        if info is not None:
+            self._info[name] = json.dumps(info, default=str)
+            dev = info.get("info") or {}
+            channels = int(dev.get("channels") or channels)
+            if dev.get("rate_sps"):
+                rate = float(dev["rate_sps"]) / max(1, int(dev.get("decimation") or 1))
+        counts = [f"ch{i}" for i in range(channels)]
         self._outlets[name, "wrench"] = self._outlet(
-            name, "forces", "Force", ["fx", "fy", "fz"], "newtons", lsl.IRREGULAR_RATE,
-            "double64")
+            name, "forces", "Force", ["fx", "fy", "fz"], "newtons", rate, "double64")
         self._outlets[name, "raw"] = self._outlet(
-            name, "raw", "StrainCounts", counts + list(RAW_EXTRA), "counts",
-            lsl.IRREGULAR_RATE, "double64")
+            name, "raw", "StrainCounts", counts + list(RAW_EXTRA), "counts", rate,
+            "double64")
         self._outlets[name, "events"] = self._outlet(
             name, "events", "Markers", ["event"], "json", lsl.IRREGULAR_RATE, "string")
 

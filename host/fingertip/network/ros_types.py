@@ -29,6 +29,16 @@ SERVICE_DEFS: dict[str, str] = {
                       "string message # informational, e.g. for error messages",
 }
 
+# A service's own RIHS01 hash (what rmw_zenoh keys services by) describes the service as a
+# structure of its request, response and event messages (REP 2011, as
+# rosidl_generator_type_description builds it). The event message carries
+# service_msgs/ServiceEventInfo, whose ``char[16]`` rosidl turns into ``uint8[16]`` in IDL
+# before hashing (rosbags' own copy keeps ``char``, which hashes differently).
+SERVICE_EVENT_INFO = "service_msgs/msg/ServiceEventInfo"
+SERVICE_EVENT_INFO_DEF = ("uint8 event_type\nbuiltin_interfaces/Time stamp\n"
+                          "uint8[16] client_gid\nint64 sequence_number")
+SERVICES = {TRIGGER: (TRIGGER_REQUEST, TRIGGER_RESPONSE)}
+
 CLOCK = "rosgraph_msgs/msg/Clock"
 GID = "rmw_dds_common/msg/Gid"
 NODE_ENTITIES = "rmw_dds_common/msg/NodeEntitiesInfo"
@@ -122,8 +132,43 @@ def _typestore():
 
 @functools.cache
 def type_hash(name: str) -> str:
-    """``RIHS01_<64 hex digits>`` of message type ``name``."""
+    """``RIHS01_<64 hex digits>`` of message type ``name``, or of service type ``name``
+    (one of :data:`SERVICES`, e.g. ``std_srvs/srv/Trigger``) and its parts."""
+    name = full_name(name)
+    for service, parts in SERVICES.items():
+        if name == service or name in parts or name == service + "_Event":
+            return _service_typestore(service).hash_rihs01(name)
     return _typestore().hash_rihs01(full_name(name))
+
+
+@functools.cache
+def _service_typestore(service: str):
+    """A typestore holding ``service`` as REP 2011 describes a service: fields
+    ``request_message``, ``response_message`` and ``event_message`` (``<srv>_Event``:
+    ``info``, then the request and the response as sequences of at most one)."""
+    typesys = require("rosbags.typesys", "computing ROS 2 type hashes")
+    request, response = SERVICES[service]
+    event = service + "_Event"
+    texts = {SERVICE_EVENT_INFO: SERVICE_EVENT_INFO_DEF,
+             request: definitions()[request], response: definitions()[response],
+             event: (f"{SERVICE_EVENT_INFO} info\n{request}[<=1] request\n"
+                     f"{response}[<=1] response"),
+             service: (f"{request} request_message\n{response} response_message\n"
+                       f"{event} event_message")}
+
+    def srv_names(x: Any) -> Any:  # rosbags files every type under msg/: put srv/ back
+        if isinstance(x, str):
+            return x.replace("/srv/msg/", "/srv/")
+        if isinstance(x, (tuple, list)):
+            return type(x)(srv_names(v) for v in x)
+        return x
+    types: dict[str, Any] = {}
+    for name, text in texts.items():
+        for n, d in typesys.get_types_from_msg(text, name).items():
+            types[srv_names(n)] = srv_names(d)
+    store = typesys.get_typestore(typesys.Stores.EMPTY)
+    store.register(types)
+    return store
 
 
 def user_data(name: str) -> bytes:

@@ -802,10 +802,16 @@ def audio_payload(samples: Any) -> tuple[str, bytes] | None:
     """Audio samples -> ``(encoding, interleaved little-endian bytes)``, or None when their
     dtype cannot be carried (not int16, int32 or float32)."""
     a = np.asarray(samples)
-    enc = S.AUDIO_ENCODINGS.get(a.dtype.name)
-    if enc is None:
+    # Looked up by (kind, size): dtype.name is a Python-level property, slow per chunk.
+    enc_le = _AUDIO_LE.get((a.dtype.kind, a.dtype.itemsize))
+    if enc_le is None:
         return None
-    return enc, np.ascontiguousarray(a, dtype=a.dtype.newbyteorder("<")).tobytes()
+    enc, le = enc_le
+    return enc, np.ascontiguousarray(a, dtype=le).tobytes()
+
+
+_AUDIO_LE = {(np.dtype(n).kind, np.dtype(n).itemsize): (enc, np.dtype(n).newbyteorder("<"))
+             for n, enc in S.AUDIO_ENCODINGS.items()}
 
 
 def xyz(v: Sequence[float]) -> tuple[float, float, float]:

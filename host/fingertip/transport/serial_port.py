@@ -40,6 +40,10 @@ class SerialStream:
     def is_open(self) -> bool:
         return self._ser.is_open
 
+    def fileno(self) -> int | None:
+        """The descriptor a caller may wait on (selectors) before :meth:`read`, or None."""
+        return self._fd if self._ser.is_open else None
+
     def read(self, max_bytes: int = 4096, timeout: float = 0.05) -> bytes:
         if not self._ser.is_open:
             raise TransportClosed(f"{self.name} is closed")
