@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from fingertip.sim.paper_method import (
+    PAPER_SPLIT,
     mse,
     paper_force_model,
     random_split,
@@ -175,6 +176,37 @@ def test_splits():
 
 def test_mse_is_the_vector_mean():
     assert mse(np.array([[3.0, 4.0], [0.0, 0.0]]), np.zeros((2, 2))) == 12.5
+    # PyTorch's MSELoss / scikit-learn's convention: the mean over components too.
+    assert mse(np.array([[3.0, 4.0], [0.0, 0.0]]), np.zeros((2, 2)), per_component=True) \
+        == 6.25
+
+
+def test_paper_split_holds_out_whole_trials():
+    assert PAPER_SPLIT == "trials"
+
+
+def test_rest_readings_before_each_trial():
+    """Each row carries the reading at rest just before its trial's contact: the indenter is
+    clear (the true force is zero) and, with the room and the slow creep drifting, it moves
+    from trial to trial."""
+    sensor = VirtualStrainSensor(5)
+    sw = calibration_sweep(sensor, seed=2, angles_deg=(-20, 0, 30), heights_mm=(0, 3))
+    assert sw.rest_counts.shape == sw.counts.shape
+    per_trial = {int(k): sw.rest_counts[sw.trial == k] for k in np.unique(sw.trial)}
+    for rows in per_trial.values():
+        assert np.all(rows == rows[0])                  # one rest reading per trial
+    rests = np.stack([r[0] for r in per_trial.values()])
+    assert np.ptp(rests, axis=0).max() > 0              # it drifts between trials
+    # A rest reading is what the sensor reads with no force: close to the unloaded rows
+    # (the first step is before contact: travel 1.5 mm, contact at 2-8 mm).
+    first = sw.step == 0
+    assert np.all(np.hypot(sw.fx[first], sw.fy[first]) == 0)
+    dev = np.abs(sw.counts[first] - sw.rest_counts[first]).max()
+    assert dev < 0.02 * np.abs(sw.counts).max()
+    sub = sw.select(sw.trial == sw.trial[0])
+    np.testing.assert_array_equal(sub.rest_counts, sw.rest_counts[sw.trial == sw.trial[0]])
+    s = force_session(5)
+    np.testing.assert_array_equal(s.retared_counts, s.sweep.counts - s.sweep.rest_counts)
 
 
 def test_paper_force_model_learns_a_linear_map():
