@@ -10,6 +10,7 @@ from fingertip.sim.paper_method import (
     PAPER_SPLIT,
     mse,
     paper_force_model,
+    paper_votes,
     random_split,
     spectrogram,
     trial_split,
@@ -230,3 +231,25 @@ def test_spectrogram_windows():
     short = windows(spectrogram(x[:fs // 4]))                # shorter than one window
     assert short.shape == (1, WINDOW_FRAMES * 32)
     assert np.all(np.isfinite(spectrogram(np.zeros(100))))   # silence and a short input
+
+
+def test_paper_votes_one_vote_per_held_out_recording():
+    """Tones tell three classes apart; one recording of class 0 is a class-1 tone (a
+    mislabelled shake): its vote is wrong whatever the model, so the accuracy is 11/12."""
+    fs = 44100
+    t = np.arange(fs // 2) / fs                      # one (padded) window per recording
+    rng = np.random.default_rng(0)
+    freqs = (1000.0, 6000.0, 14000.0)
+    xs, ys = [], []
+    for k in range(12):
+        c = k % 3
+        f = freqs[1] if k == 0 else freqs[c]
+        xs.append(np.sin(2 * math.pi * f * t) + 0.01 * rng.standard_normal(len(t)))
+        ys.append(c)
+    r = paper_votes(xs, np.array(ys), ["screws", "rubber_bands", "empty"], folds=4, epochs=30)
+    assert r.recordings == 12 and r.correct == 11
+    assert r.accuracy == pytest.approx(11 / 12)
+    assert r.box_accuracy == pytest.approx(7 / 8)           # classes 0 and 1 only
+    assert r.window_accuracy == pytest.approx(11 / 12)      # one window each
+    with pytest.raises(ValueError):
+        paper_votes(xs[:3], np.array(ys[:3]), ["a", "b", "c"], folds=5)
