@@ -9,7 +9,7 @@ before each contact, a random split of the readings instead, the ideal sensor
 (``Realism.ideal()``: unit spread and white noise only, the simulator the project's earlier
 figures came from), and the ablation (every source on but one) for docs/simulation.md's error
 budget. ``ablation_only()`` (each source alone) is not part of the bench run: it doubles its
-cost; docs/simulation.md quotes one run of it.
+cost (``python tests/bench/bench_realism.py`` runs it).
 
 Material: the paper's seven materials, 100 simulated slides each; the paper's STFT + MLP on
 a random split of its windows against ours (train_material, 5-fold cross-validation by
