@@ -124,7 +124,7 @@ def _material() -> dict[str, float]:
         ours = train_material(load_folder(root / "materials"), root / "model", folds=5,
                               seed=SEED, plot=False).evaluation.windows.accuracy
         write_vibration(root / "shake", kind="shake", recordings_per_class=20, seed=SEED,
-                        progress=False)
+                        progress=False, task_variation=True)
         shakes = read_folder(root / "shake")
         shake = paper_vibration(*shakes, split="windows", seed=SEED)
         votes = paper_votes(*shakes, seed=SEED)
