@@ -35,6 +35,9 @@ OPS = {">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b,
        ">": lambda a, b: a > b, "<": lambda a, b: a < b,
        "within": lambda a, b: b[0] <= a <= b[1]}
 HEADER_PREFIX = "Last run on: "
+IDEAL_PREFIX = "ideal sensor"
+"""A description starting so marks a figure of the ideal simulator (``Realism.ideal()``):
+benchmarks.md lists those apart, after the realistic simulator's headline rows."""
 
 Target = tuple[str, object] | None
 
@@ -85,6 +88,18 @@ def _load(path: Path) -> dict:
     return json.loads(path.read_text()) if path.exists() else {}
 
 
+def _rows(results: dict, meta: dict, keys: list[str]) -> list[str]:
+    lines = ["| key | value | target | status | what | measured |", "|---|---|---|---|---|---|"]
+    for key in keys:
+        m = meta.get(key, {})
+        v = results[key]
+        shown = f"{v:,}" if isinstance(v, int) else f"{v:.4g}"
+        lines.append(f"| `{key}` | {shown} | {m.get('target', '')} | {m.get('status', '')} | "
+                     f"{m.get('what', '')} | "
+                     f"{m.get('date', '')}, {m.get('machine', '')} |")
+    return lines
+
+
 def write_markdown(results: dict, meta: dict, tables: dict, header: str) -> None:
     lines = [
         "# Benchmarks",
@@ -95,16 +110,16 @@ def write_markdown(results: dict, meta: dict, tables: dict, header: str) -> None
         "",
         header,
         "",
-        "| key | value | target | status | what | measured |",
-        "|---|---|---|---|---|---|",
     ]
-    for key in sorted(results):
-        m = meta.get(key, {})
-        v = results[key]
-        shown = f"{v:,}" if isinstance(v, int) else f"{v:.4g}"
-        lines.append(f"| `{key}` | {shown} | {m.get('target', '')} | {m.get('status', '')} | "
-                     f"{m.get('what', '')} | "
-                     f"{m.get('date', '')}, {m.get('machine', '')} |")
+    ideal = [k for k in sorted(results)
+             if meta.get(k, {}).get("what", "").startswith(IDEAL_PREFIX)]
+    lines += _rows(results, meta, [k for k in sorted(results) if k not in ideal])
+    if ideal:
+        lines += ["", "## Ideal sensor rows (the earlier simulator)", "",
+                  "Measured on `Realism.ideal()` (the unit's spread and the HX711's white "
+                  "noise only, none", "of the error budget's sources; docs/simulation.md): "
+                  "kept for comparison, not headline figures.", ""]
+        lines += _rows(results, meta, ideal)
     for title, table in sorted(tables.items()):
         lines += ["", f"## {title}", "", table.rstrip()]
     MD_OUT.write_text("\n".join(lines) + "\n")
