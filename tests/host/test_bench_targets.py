@@ -44,3 +44,16 @@ def test_realism_goals_are_ranges() -> None:
     assert d["sim_paper_method_material_accuracy"][1] == ("within", (0.93, 0.98))
     for _, target in d.values():
         check_target("realism", target)
+
+
+def test_ideal_sensor_rows_are_listed_apart(tmp_path, monkeypatch) -> None:
+    from tests.bench import run
+
+    monkeypatch.setattr(run, "MD_OUT", tmp_path / "b.md")
+    meta = {"a_real": {"what": "realistic figure", "target": "0.10-0.20", "status": "met"},
+            "b_ideal": {"what": "ideal sensor: old figure", "target": "", "status": ""}}
+    run.write_markdown({"a_real": 0.15, "b_ideal": 0.02}, meta, {}, "Last run on: x")
+    text = (tmp_path / "b.md").read_text()
+    head, ideal = text.split("## Ideal sensor rows")
+    assert "`a_real`" in head and "`b_ideal`" not in head
+    assert "`b_ideal`" in ideal and "| 0.10-0.20 | met |" in head
