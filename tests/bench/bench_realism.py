@@ -14,9 +14,10 @@ cost (``python tests/bench/bench_realism.py`` runs it).
 Material: the paper's seven materials, 100 simulated slides each; the paper's STFT + MLP on
 a random split of its windows against ours (train_material, 5-fold cross-validation by
 recording) on the same slides. Shake: the same STFT + MLP on the paper's shake protocol (20
-shakes per class), per window on a random split, and as the paper's task uses it: a majority
-vote over each whole held-out shake (5 folds by recording); ours is bench_classify's
-``shake_window_accuracy_*`` and bench_tasks' ``shake_pick_success``.
+shakes per class) with the shake-and-pick scene's own variation (box fill and the arm's real
+amplitude: ``write_vibration(task_variation=True)``), per window on a random split, and as the
+paper's task uses it: a majority vote over each whole held-out shake (5 folds by recording);
+ours is bench_classify's ``shake_window_accuracy_*`` and bench_tasks' ``shake_pick_success``.
 """
 from __future__ import annotations
 
@@ -181,8 +182,9 @@ DESCRIPTION = {
     "material_accuracy_minus_paper_method": ("our material accuracy minus the paper method's, "
                                              "same slides", (">=", 0.0)),
     "sim_paper_method_shake_window_accuracy": (
-        "the paper's STFT + MLP on 3 x 20 simulated shakes (screws, rubber bands, empty), "
-        "random split of windows, per window (the paper's 94.64 % is its task success)", None),
+        "the paper's STFT + MLP on 3 x 20 simulated shakes (screws, rubber bands, empty; the "
+        "shake-and-pick scene's fill and amplitude spread), random split of windows, per "
+        "window (the paper's 94.64 % is its task success)", None),
     "sim_paper_method_shake_vote_accuracy": (
         "the same, as the paper's task uses it: one majority vote per whole held-out shake "
         "(5 folds by recording), of 60 shakes", None),
