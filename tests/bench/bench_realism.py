@@ -182,9 +182,8 @@ DESCRIPTION = {
     "material_accuracy_minus_paper_method": ("our material accuracy minus the paper method's, "
                                              "same slides", (">=", 0.0)),
     "sim_paper_method_shake_window_accuracy": (
-        "the paper's STFT + MLP on 3 x 20 simulated shakes (screws, rubber bands, empty; the "
-        "shake-and-pick scene's fill and amplitude spread), random split of windows, per "
-        "window (the paper's 94.64 % is its task success)", None),
+        "the paper's STFT + MLP on 3 x 20 simulated shakes (screws, rubber bands, empty), "
+        "random split of windows, per window (the paper's 94.64 % is its task success)", None),
     "sim_paper_method_shake_vote_accuracy": (
         "the same, as the paper's task uses it: one majority vote per whole held-out shake "
         "(5 folds by recording), of 60 shakes", None),
