@@ -105,7 +105,8 @@ DESCRIPTION = {
     "force_fit_s": ("wall time of fit_calibration with all six models (s)", None),
 }
 for _n in DEFAULT_MODELS:
-    DESCRIPTION[f"force_rmse_{_n}"] = (f"{_n}: held-out RMSE (N), same split", None)
+    DESCRIPTION[f"force_rmse_{_n}"] = (f"ideal sensor, {_n}: held-out RMSE (N), same split",
+                                      None)
     DESCRIPTION[f"force_latency_us_single_{_n}"] = (
         f"{_n}: onnxruntime, one frame per call, p50 (us)", None)
     DESCRIPTION[f"force_latency_us_batch_{_n}"] = (

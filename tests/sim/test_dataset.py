@@ -13,8 +13,8 @@ import soundfile as sf
 
 from fingertip.cli.sim import main
 from fingertip.sim.dataset import (
-    CALIBRATION_COLUMNS, MANIFEST_COLUMNS, DatasetError, read_calibration_csv, resample,
-    write_calibration, write_vibration,
+    CALIBRATION_COLUMNS, MANIFEST_COLUMNS, TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS, DatasetError,
+    plan_vibration, read_calibration_csv, resample, write_calibration, write_vibration,
 )
 from fingertip.sim.physics import PAPER_SEVEN, params_path
 
@@ -184,6 +184,27 @@ def test_shake_classes_and_paper_duration(tmp_path):
         assert 1.0 <= float(r["normal_n"]) <= 2.0  # the grip
     level = {r["class"]: float(r["rms_dbfs"]) for r in man}
     assert level["screws"] > level["rubber_bands"] > level["empty"] - 3
+
+
+def test_shake_task_variation_draws_the_scenes_fill_and_amplitude():
+    plain = plan_vibration("shake", 30, None, 3)
+    varied = plan_vibration("shake", 30, None, 3, task_variation=True)
+    for a, b in zip(plain, varied, strict=True):
+        # the grip is drawn first either way: the paper-like set stays as it was
+        assert a.scene.grip_n == b.scene.grip_n and a.scene.items is None
+        lo, hi = TASK_BOX_ITEMS[b.cls]
+        assert lo <= b.scene.n_items <= hi
+        g = b.scene.amplitude_m / a.scene.amplitude_m
+        assert TASK_AMPLITUDE_GAIN[0] - 1e-4 <= g <= TASK_AMPLITUDE_GAIN[1] + 1e-4
+    screws = {p.scene.n_items for p in varied if p.cls == "screws"}
+    assert len(screws) > 3  # the fill really varies, not one default
+    assert {p.scene.n_items for p in varied if p.cls == "empty"} == {0}
+
+
+def test_task_variation_is_for_shakes_only(tmp_path):
+    with pytest.raises(DatasetError, match="shake recordings only"):
+        write_vibration(tmp_path / "a", kind="materials", task_variation=True)
+    assert not (tmp_path / "a").exists()
 
 
 def test_cups_sidecars(tmp_path):

@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 from fingertip.sim.paper_method import (
+    PAPER_SPLIT,
     mse,
     paper_force_model,
+    paper_votes,
     random_split,
     spectrogram,
     trial_split,
@@ -175,6 +177,37 @@ def test_splits():
 
 def test_mse_is_the_vector_mean():
     assert mse(np.array([[3.0, 4.0], [0.0, 0.0]]), np.zeros((2, 2))) == 12.5
+    # PyTorch's MSELoss / scikit-learn's convention: the mean over components too.
+    assert mse(np.array([[3.0, 4.0], [0.0, 0.0]]), np.zeros((2, 2)), per_component=True) \
+        == 6.25
+
+
+def test_paper_split_holds_out_whole_trials():
+    assert PAPER_SPLIT == "trials"
+
+
+def test_rest_readings_before_each_trial():
+    """Each row carries the reading at rest just before its trial's contact: the indenter is
+    clear (the true force is zero) and, with the room and the slow creep drifting, it moves
+    from trial to trial."""
+    sensor = VirtualStrainSensor(5)
+    sw = calibration_sweep(sensor, seed=2, angles_deg=(-20, 0, 30), heights_mm=(0, 3))
+    assert sw.rest_counts.shape == sw.counts.shape
+    per_trial = {int(k): sw.rest_counts[sw.trial == k] for k in np.unique(sw.trial)}
+    for rows in per_trial.values():
+        assert np.all(rows == rows[0])                  # one rest reading per trial
+    rests = np.stack([r[0] for r in per_trial.values()])
+    assert np.ptp(rests, axis=0).max() > 0              # it drifts between trials
+    # A rest reading is what the sensor reads with no force: close to the unloaded rows
+    # (the first step is before contact: travel 1.5 mm, contact at 2-8 mm).
+    first = sw.step == 0
+    assert np.all(np.hypot(sw.fx[first], sw.fy[first]) == 0)
+    dev = np.abs(sw.counts[first] - sw.rest_counts[first]).max()
+    assert dev < 0.02 * np.abs(sw.counts).max()
+    sub = sw.select(sw.trial == sw.trial[0])
+    np.testing.assert_array_equal(sub.rest_counts, sw.rest_counts[sw.trial == sw.trial[0]])
+    s = force_session(5)
+    np.testing.assert_array_equal(s.retared_counts, s.sweep.counts - s.sweep.rest_counts)
 
 
 def test_paper_force_model_learns_a_linear_map():
@@ -198,3 +231,25 @@ def test_spectrogram_windows():
     short = windows(spectrogram(x[:fs // 4]))                # shorter than one window
     assert short.shape == (1, WINDOW_FRAMES * 32)
     assert np.all(np.isfinite(spectrogram(np.zeros(100))))   # silence and a short input
+
+
+def test_paper_votes_one_vote_per_held_out_recording():
+    """Tones tell three classes apart; one recording of class 0 is a class-1 tone (a
+    mislabelled shake): its vote is wrong whatever the model, so the accuracy is 11/12."""
+    fs = 44100
+    t = np.arange(fs // 2) / fs                      # one (padded) window per recording
+    rng = np.random.default_rng(0)
+    freqs = (1000.0, 6000.0, 14000.0)
+    xs, ys = [], []
+    for k in range(12):
+        c = k % 3
+        f = freqs[1] if k == 0 else freqs[c]
+        xs.append(np.sin(2 * math.pi * f * t) + 0.01 * rng.standard_normal(len(t)))
+        ys.append(c)
+    r = paper_votes(xs, np.array(ys), ["screws", "rubber_bands", "empty"], folds=4, epochs=30)
+    assert r.recordings == 12 and r.correct == 11
+    assert r.accuracy == pytest.approx(11 / 12)
+    assert r.box_accuracy == pytest.approx(7 / 8)           # classes 0 and 1 only
+    assert r.window_accuracy == pytest.approx(11 / 12)      # one window each
+    with pytest.raises(ValueError):
+        paper_votes(xs[:3], np.array(ys[:3]), ["a", "b", "c"], folds=5)

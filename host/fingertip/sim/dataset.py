@@ -59,6 +59,10 @@ MANIFEST_FILE = "manifest.csv"
 KINDS = ("materials", "shake", "cups")
 DEFAULT_RECORDINGS = {"materials": 20, "shake": 20, "cups": 36}
 """The paper: 20 shake recordings per class, 36 cup-counting trials (materials: ours)."""
+TASK_BOX_ITEMS = {"screws": (5, 12), "rubber_bands": (6, 14), "empty": (0, 0)}
+"""Items per box in the shake-and-pick scene (inclusive; sim/world/boxes draws from these)."""
+TASK_AMPLITUDE_GAIN = (0.8, 1.05)
+"""The simulated arm's real shake amplitude over the commanded one in that scene."""
 MIN_RATE_HZ, MAX_RATE_HZ = 1000, 192_000
 FORMATS = ("wav", "flac")
 
@@ -450,7 +454,7 @@ def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
 
 
 def plan_vibration(kind: str, recordings_per_class: int, seconds: float | None,
-                   seed: int) -> list[_Plan]:
+                   seed: int, *, task_variation: bool = False) -> list[_Plan]:
     """The recordings :func:`write_vibration` makes, with their scenes (nothing simulated).
 
     Per recording (uniform or log-uniform draws from the recording's own seed):
@@ -458,7 +462,10 @@ def plan_vibration(kind: str, recordings_per_class: int, seconds: float | None,
     - materials: the paper's seven, sliding at 10-40 mm/s (log-uniform) with 0.5-2 N
       (log-uniform) for ``seconds`` (default: the paper's 16 mm slide at that speed);
     - shake: screws / rubber_bands / empty, 0.67 Hz, 5 cm, ``seconds`` (default 5.6 s),
-      grip 1.0-2.0 N;
+      grip 1.0-2.0 N; with ``task_variation`` also the shake-and-pick scene's own variation:
+      the box's fill (:data:`TASK_BOX_ITEMS`) and the arm's real amplitude
+      (:data:`TASK_AMPLITUDE_GAIN` x 5 cm), drawn after the grip so that the other draws
+      stay as they are;
     - cups: five cups, 21 mm slide at 5-20 mm/s, 0.3-0.6 N, starting at a robot Z of
       100-140 mm (``seconds`` does not apply).
     """
@@ -479,8 +486,13 @@ def plan_vibration(kind: str, recordings_per_class: int, seconds: float | None,
                 scene = Slide(cls, speed_mm_s=speed, normal_n=normal, duration=dur, seed=rs)
             elif kind == "shake":
                 grip = round(float(rng.uniform(1.0, 2.0)), 3)
+                items, amp = None, BoxShake.amplitude_m
+                if task_variation:
+                    lo, hi = TASK_BOX_ITEMS[cls]
+                    items = int(rng.integers(lo, hi + 1))
+                    amp = round(amp * float(rng.uniform(*TASK_AMPLITUDE_GAIN)), 5)
                 scene = BoxShake(cls, grip_n=grip, duration=5.6 if seconds is None
-                                 else seconds, seed=rs)
+                                 else seconds, items=items, amplitude_m=amp, seed=rs)
             else:
                 scene = CupStackSlide(speed_mm_s=round(float(rng.uniform(5.0, 20.0)), 3),
                                       normal_n=round(float(rng.uniform(0.3, 0.6)), 3),
@@ -502,7 +514,8 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
                     seed: int = 0, rate: int = 44100, fmt: str = "wav",
                     params_file: str | os.PathLike | None = None, force: bool = False,
                     progress: bool = False,
-                    on_recording: Callable[[str], None] | None = None) -> DatasetResult:
+                    on_recording: Callable[[str], None] | None = None,
+                    task_variation: bool = False) -> DatasetResult:
     """Labelled recordings: ``OUT/<class>/<class>_NNNN.wav`` (16-bit PCM), ``manifest.csv``,
     ``dataset.json``; for cups also ``<class>_NNNN_rims.csv`` (rim, offset_mm, z_mm,
     passed, time_s, sample) and ``<class>_NNNN_z.csv`` (the robot's Z at 100 Hz).
@@ -523,7 +536,9 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
         if not (isinstance(seconds, (int, float)) and 0.05 <= seconds <= 600):
             raise DatasetError(f"seconds must be between 0.05 and 600, not {seconds!r}")
         seconds = float(seconds)
-    plans = plan_vibration(kind, n_rec, seconds, seed)
+    if task_variation and kind != "shake":
+        raise DatasetError(f"task variation applies to shake recordings only, not {kind!r}")
+    plans = plan_vibration(kind, n_rec, seconds, seed, task_variation=task_variation)
     params, pfile = _load_params(params_file)
     out = Path(out)
     w0 = time.monotonic()
@@ -541,6 +556,7 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
         "generator": GENERATOR, "kind": "vibration", "vibration_kind": kind,
         "fingertip_version": __version__, "complete": False, "seed": seed,
         "classes": classes, "recordings_per_class": n_rec, "seconds": seconds,
+        "task_variation": task_variation,
         "rate_hz": rate, "simulated_rate_hz": chain.fs,
         "resampled": rate != chain.fs, "format": fmt, "subtype": "PCM_16",
         "units": "1.0 = the sound card's full scale (1 V at its input)",

@@ -46,6 +46,9 @@ class Sweep:
     step: np.ndarray
     t_us: np.ndarray
     unit_seed: int | None
+    rest_counts: np.ndarray | None = None
+    """(N, 4) int64: the reading at rest just before the row's trial touched (the indenter
+    clear of the skin), what a re-tare before each contact would take; None if not known."""
 
     def __len__(self) -> int:
         return len(self.fx)
@@ -58,7 +61,8 @@ class Sweep:
     def select(self, mask: np.ndarray) -> Sweep:
         return Sweep(*(getattr(self, k)[mask] for k in (
             "counts", "fx", "fy", "angle_deg", "height_mm", "displacement_mm", "loading",
-            "trial", "step", "t_us")), self.unit_seed)
+            "trial", "step", "t_us")), self.unit_seed,
+            None if self.rest_counts is None else self.rest_counts[mask])
 
 
 def force_at(displacement_mm: np.ndarray, contact_mm: float, travel_mm: float,
@@ -148,12 +152,15 @@ def calibration_sweep(sensor: VirtualStrainSensor | None = None, *, seed: int = 
     fxy = np.column_stack([mag * np.cos(rad), mag * np.sin(rad)])
     counts = sensor.counts_batch(fxy, hh, tt, np.concatenate(zf_parts))
     trial, step, d, load = (np.concatenate(x) for x in zip(*meta, strict=True))
+    # Each trial's first point is the rest reading before its first move (force zero).
+    first = np.cumsum([0] + [len(x) for x in t_parts[:-1]])
+    rest = counts[first][trial]
     nominal_h = np.concatenate([np.full(len(m[0]), float(h)) for m, (_, h)
                                 in zip(meta, trials, strict=True)])
     nominal_a = np.concatenate([np.full(len(m[0]), float(a)) for m, (a, _)
                                 in zip(meta, trials, strict=True)])
     return Sweep(counts[rec], fxy[rec, 0], fxy[rec, 1], nominal_a, nominal_h, d, load, trial,
-                 step, np.rint(tt[rec] * 1e6).astype(np.int64), sensor.seed)
+                 step, np.rint(tt[rec] * 1e6).astype(np.int64), sensor.seed, rest)
 
 
 def _skin(mag: np.ndarray, since_s: np.ndarray, pause_s: float, rp: RealismParams,

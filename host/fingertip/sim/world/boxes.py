@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..dataset import TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS
 from ..physics import BoxShake, load
 from .hand import (
     FINGERS,
@@ -136,7 +137,8 @@ def make_box_world(seed: int, *, hand_seed: int = 100) -> tuple[BoxWorld, SimHan
     order = list(MATERIALS) if rng.uniform() < 0.5 else list(reversed(MATERIALS))
     boxes = []
     for content, x in zip(order, BOX_X_MM, strict=True):
-        items = int(rng.integers(5, 13)) if content == "screws" else int(rng.integers(6, 15))
+        lo, hi = TASK_BOX_ITEMS[content]
+        items = int(rng.integers(lo, hi + 1))
         boxes.append(Box(content, items, x, {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}))
     chain = {"preamp_gain": load().preamp.gain * float(rng.uniform(0.6, 1.5)),
              "mains_hz": float(rng.choice([50.0, 60.0]))}
@@ -144,7 +146,7 @@ def make_box_world(seed: int, *, hand_seed: int = 100) -> tuple[BoxWorld, SimHan
                      angles_deg={f: float(rng.uniform(-20, 20)) for f in FINGERS},
                      heights_mm={f: float(rng.uniform(1.0, 4.0)) for f in FINGERS},
                      audio_seed=seed, chain_options=chain, boxes=boxes,
-                     amplitude_gain=float(rng.uniform(0.8, 1.05)),
+                     amplitude_gain=float(rng.uniform(*TASK_AMPLITUDE_GAIN)),
                      scene_seed=int(rng.integers(1 << 30)))
     hand = SimHand(world, {f: hand_seed + i for i, f in enumerate(FINGERS)})
     return world, hand, SimArm(world)
