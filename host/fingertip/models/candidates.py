@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .augment import NONE as NO_AUGMENT
+from .augment import AugmentConfig, augmented
 from .anytime import DECISION_TIMES, at_time, running, time_label
 from .classify import (
     Dataset,
@@ -37,7 +39,12 @@ from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
 
-CANDIDATES = ("baseline", "linear", "mlp")
+CANDIDATES = ("baseline", "linear", "mlp", "cnn")
+CNN_EPOCHS = 30
+CNN_BUDGET_S = 60.0
+"""The CNN candidate is cross-validated only when its projected training time (every fold
+and the final fit) is within this (half the trainer's 120 s goal for 700 slides of 2 s:
+the other candidates need the rest); each of its fits is also capped at its share."""
 LONGEST_S = 2.0
 """The longest window: beyond it, windows slide and their answers are averaged."""
 FIRST_S = 0.25
@@ -184,8 +191,34 @@ def _mlp_trainer(hidden: tuple[int, ...], epochs: int):
     return train
 
 
+def _cnn_trainer(epochs: int, max_seconds: float | None):
+    """The small ResNet of :mod:`.cnn` on fixed spectrogram windows, early-stopped on 15 %
+    of the training *recordings* (at least one), each fit capped at ``max_seconds``."""
+    def train(x, y, g, classes, seed) -> Fitted:
+        from .cnn import train_cnn
+
+        rng = np.random.default_rng(seed)
+        groups = np.unique(g)
+        val = np.isin(g, rng.choice(groups, max(1, round(0.15 * len(groups))),
+                                    replace=False))
+        if val.all() or len(np.unique(y[~val])) < len(classes):
+            val[:] = False  # too few recordings to hold some out: the training loss decides
+        m, _ = train_cnn(x[~val], y[~val], classes=classes, x_val=x[val], y_val=y[val],
+                         epochs=epochs, patience=5, max_seconds=max_seconds, seed=seed)
+
+        def export(path, t, meta):
+            p = dict(m.params, **{"out.w": m.params["out.w"] / t,
+                                  "out.b": m.params["out.b"] / t})
+            return replace(m, params=p).to_onnx(path, metadata=meta)
+
+        return Fitted(m.forward, m.n_params, export, m)
+    return train
+
+
 def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
-               hidden: tuple[int, ...] = (64,), epochs: int = 300) -> list[Candidate]:
+               hidden: tuple[int, ...] = (64,), epochs: int = 300,
+               cnn_epochs: int = CNN_EPOCHS, cnn_max_seconds: float | None = None
+               ) -> list[Candidate]:
     cfg = setup.cfg
     out = []
     for name in names:
@@ -207,6 +240,14 @@ def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
                                        f"frame-to-frame change, MLP {list(hidden)}",
                                  FeaturePipeline(cfg, setup.spec(("mean", "std", "flux"))),
                                  _mlp_trainer(hidden, epochs)))
+        elif name == "cnn":
+            f = setup.frames(setup.first_s)
+            spec = WindowSpec(f, setup.step_s, "spectrogram")
+            out.append(Candidate(name, f"small ResNet on {f}-frame log-band spectrograms "
+                                       f"({setup.first_s:g} s) sliding every "
+                                       f"{setup.step_s:g} s, answers averaged",
+                                 FeaturePipeline(cfg, spec),
+                                 _cnn_trainer(cnn_epochs, cnn_max_seconds)))
         else:
             raise ValueError(f"unknown candidate {name!r} (one of {CANDIDATES})")
     return out
@@ -233,15 +274,32 @@ class CandidateWindows:
     seconds: float
 
 
-def candidate_windows(cand: Candidate, ds: Dataset) -> CandidateWindows:
+def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_AUGMENT,
+                      seed: int = 0) -> CandidateWindows:
+    """Every recording's training windows (with those of ``augment.copies`` augmented
+    copies of it, :mod:`.augment`) and the windows it is answered on."""
     t0 = time.perf_counter()
-    tr = [cand.pipe.windows(it.rec, training=True) for it in ds.items]
+    tr = [_training_windows(cand.pipe, it.rec, augment, [seed, i])
+          for i, it in enumerate(ds.items)]
     te = [cand.pipe.windows(it.rec) for it in ds.items]
     short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
     if short:
         log.warning("%d recording(s) shorter than the first window give no answer: %s",
                     len(short), ", ".join(short[:5]))
     return CandidateWindows(tr, te, time.perf_counter() - t0)
+
+
+def _training_windows(pipe: FeaturePipeline, rec, augment: AugmentConfig, seed: list[int]
+                      ) -> Windows:
+    w = pipe.windows(rec, training=True)
+    if not augment.copies or not len(w):
+        return w
+    # a copy too short for one window (sped up) adds nothing: skip it
+    ws = [w] + [a for a in (pipe.windows(r, training=True)
+                            for r in augmented(rec, augment, seed)) if len(a)]
+    return Windows(*(np.concatenate([getattr(a, f) for a in ws]) for f in
+                     ("inputs", "t_start", "t_end", "level_db", "clipped")),
+                   None if w.growing is None else np.concatenate([a.growing for a in ws]))
 
 
 def training_rows(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
@@ -297,6 +355,22 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
             if len(cw.test[i]):
                 out[int(i)] = answers_of(m, cw.test[i], f, nov)
     return out
+
+
+def cnn_projection_s(cw: CandidateWindows, labels: np.ndarray, classes: list[str],
+                     n_fits: int, epochs: int = CNN_EPOCHS, probe: int = 256,
+                     seed: int = 0) -> float:
+    """Projected seconds of the CNN candidate's training: one epoch timed on up to
+    ``probe`` of its training windows, scaled to all of them, ``epochs`` epochs (no early
+    stop: an upper bound) and ``n_fits`` fits (the folds and the final model)."""
+    from .cnn import train_cnn
+
+    x, y, _ = training_rows(cw, labels, np.arange(len(labels)), len(classes))
+    idx = np.random.default_rng(seed).choice(len(x), min(probe, len(x)), replace=False)
+    t0 = time.perf_counter()
+    train_cnn(x[idx], y[idx], classes=classes, epochs=1, seed=seed)
+    per_window = (time.perf_counter() - t0) / len(idx)
+    return per_window * len(x) * epochs * n_fits
 
 
 # --- scores ---------------------------------------------------------------------------------

@@ -34,8 +34,11 @@ from pathlib import Path
 import numpy as np
 
 from .anytime import DECISION_TIMES
+from .augment import AugmentConfig
 from .candidates import (
     CANDIDATES,
+    CNN_BUDGET_S,
+    CNN_EPOCHS,
     Answers,
     Candidate,
     Fitted,
@@ -44,6 +47,7 @@ from .candidates import (
     calibrated,
     candidate_windows,
     candidates,
+    cnn_projection_s,
     choose_setup,
     cross_validate,
     decision_curve,
@@ -104,7 +108,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    seed: int = 0, rate_hint: float | None = None, max_hz: float | None = None,
                    epochs: int = 300, folds: int = 1, features: FeatureConfig | None = None,
                    kind: str = "material", plot: bool = True,
-                   models: tuple[str, ...] = CANDIDATES) -> TrainResult:
+                   models: tuple[str, ...] = CANDIDATES,
+                   augment: AugmentConfig | None = None,
+                   cnn_budget_s: float = CNN_BUDGET_S) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
@@ -114,8 +120,13 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     the exported model is then trained on every recording. ``folds`` 1: one split
     (``test_fraction`` held out); the choice and the calibration use a cross-validation of
     the training recordings only. ``models``: the candidates (see
-    :data:`~fingertip.models.candidates.CANDIDATES`).
+    :data:`~fingertip.models.candidates.CANDIDATES`). ``augment``: augmented copies of
+    each training recording (:mod:`.augment`; None: the defaults, two copies; only the
+    training windows of each fold are augmented, never the answers scored).
     """
+    augment = AugmentConfig() if augment is None else augment
+    if not cnn_budget_s > 0:
+        raise ValueError(f"cnn_budget_s must be > 0 (inf: no limit), not {cnn_budget_s}")
     t_all = time.perf_counter()
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
     setup = choose_setup(ds, features, max_hz, window_s, step_s)
@@ -131,14 +142,28 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         inner = min(3, least)
         sel_folds = [train_idx[f] for f in stratified_folds(labels[train_idx], inner, seed)] \
             if inner >= 2 else []
-    cands = candidates(setup, models, hidden, epochs)
+    n_fits = len(sel_folds) + 1
+    cands = candidates(setup, models, hidden, epochs,
+                       cnn_max_seconds=cnn_budget_s / n_fits
+                       if math.isfinite(cnn_budget_s) else None)
     results: dict[str, dict] = {}
+    skipped: dict[str, str] = {}
     oof: dict[str, dict[int, Answers]] = {}
     cws = {}
     t_cv = time.perf_counter()
-    for cand in cands:
+    for cand in list(cands):
         t0 = time.perf_counter()
-        cw = cws[cand.name] = candidate_windows(cand, ds)
+        cw = cws[cand.name] = candidate_windows(cand, ds, augment, seed)
+        if cand.name == "cnn" and math.isfinite(cnn_budget_s) and len(cands) > 1:
+            need = cnn_projection_s(cw, labels, ds.classes, n_fits, seed=seed)
+            if need > cnn_budget_s:
+                skipped["cnn"] = (f"projected training {need:.0f} s ({n_fits} fits of at "
+                                  f"most {CNN_EPOCHS} epochs) exceeds its budget of "
+                                  f"{cnn_budget_s:g} s")
+                log.info("candidate cnn skipped: %s", skipped["cnn"])
+                cands.remove(cand)
+                del cws[cand.name]
+                continue
         ans = cross_validate(cand, cw, labels, sel_folds, ds.classes, seed) \
             if sel_folds else {}
         oof[cand.name] = ans
@@ -217,7 +242,8 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    "longest_s": setup.longest_s, "step_s": setup.step_s,
                    "frames": cand.pipe.spec.frames, "min_frames": cand.pipe.spec.min_frames,
                    "stats": list(cand.pipe.spec.stats)},
-        "candidates": results, "choice": why,
+        "candidates": results, "candidates_skipped": skipped, "choice": why,
+        "augmentation": augment.to_dict(),
         "split": split, "seed": seed, "test_fraction": test_fraction if folds <= 1 else None,
         "evaluation": evaluation.to_dict(), "summary": summary,
         "accuracy_by_time": table, "decision_curve": curve,
