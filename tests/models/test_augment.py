@@ -17,7 +17,12 @@ from fingertip.models.augment import (
     motor,
     scale_frequencies,
 )
-from fingertip.models.candidates import candidate_windows, candidates, choose_setup
+from fingertip.models.candidates import (
+    augmented_copies,
+    candidate_windows,
+    candidates,
+    choose_setup,
+)
 from fingertip.models.classify import Dataset, Labelled
 from fingertip.models.features import as_recording
 
@@ -96,7 +101,7 @@ def test_bad_settings_are_refused():
         AugmentConfig(speed=(0.0, 2.0))
 
 
-def test_only_training_windows_are_augmented():
+def test_only_training_windows_are_augmented_and_copies_are_made_once():
     rng = np.random.default_rng(3)
     items = [Labelled(Path(f"{i}.wav"), "ab"[i % 2], i % 2,
                       as_recording(rng.standard_normal(int(RATE)), RATE)) for i in range(4)]
@@ -105,8 +110,12 @@ def test_only_training_windows_are_augmented():
     plain = candidate_windows(cand, ds, NONE)
     more = candidate_windows(cand, ds, AugmentConfig(copies=2, p_speed=0.0), seed=5)
     for p, m in zip(plain.train, more.train, strict=True):
-        assert len(m) == 3 * len(p)
+        assert len(m) == len(p) + 2 * int(p.growing.sum())  # copies: windows from the start
         np.testing.assert_array_equal(m.inputs[:len(p)], p.inputs)
         assert len(m.growing) == len(m.inputs)
+    again = candidate_windows(cand, ds, copies=augmented_copies(
+        ds, AugmentConfig(copies=2, p_speed=0.0), seed=5))
+    for m, a in zip(more.train, again.train, strict=True):
+        np.testing.assert_array_equal(m.inputs, a.inputs)
     for p, m in zip(plain.test, more.test, strict=True):
         np.testing.assert_array_equal(m.inputs, p.inputs)

@@ -10,14 +10,14 @@ the simulator's own hum and motors would say nothing about other people's record
 
 - **speed**: a slide ``s`` times faster shifts a texture's spectrum up by ``s`` (spatial
   wavelength / speed); the recording is resampled so that its frequencies scale by a
-  log-uniform factor (0.4-2.5 by default) at the same rate (it becomes shorter or longer;
+  log-uniform factor (0.5-2 by default) at the same rate (it becomes shorter or longer;
   longer copies are cut to the original length);
 - **hum**: 50 or 60 Hz (either grid, 0.3 % off nominal) with random harmonics up to the
   ninth, odd ones stronger, a slow amplitude wander, at a random level relative to the
-  recording (-20 to +15 dB by default);
+  recording (-20 to +10 dB by default);
 - **motor**: a tonal series at a random fundamental (30-800 Hz) with 1/k harmonics and a
-  few percent of frequency wander, plus broadband noise in a random octave band, at -15 to
-  +10 dB relative to the recording.
+  few percent of frequency wander, plus broadband noise in a random octave band, at -20 to
+  +5 dB relative to the recording.
 
 Input gain needs no augmentation: every feature window is normalised by its own power.
 Numpy and scipy only.
@@ -43,14 +43,14 @@ class AugmentConfig:
 
     copies: int = 2
     """Copies per training recording (0: no augmentation)."""
-    p_speed: float = 0.6
+    p_speed: float = 0.5
     p_hum: float = 0.5
     p_motor: float = 0.5
-    speed: tuple[float, float] = (0.4, 2.5)
+    speed: tuple[float, float] = (0.5, 2.0)
     """Frequency scale factors (log-uniform)."""
-    hum_db: tuple[float, float] = (-20.0, 15.0)
+    hum_db: tuple[float, float] = (-20.0, 10.0)
     """Hum power relative to the recording's power, dB (uniform)."""
-    motor_db: tuple[float, float] = (-15.0, 10.0)
+    motor_db: tuple[float, float] = (-20.0, 5.0)
     motor_hz: tuple[float, float] = (30.0, 800.0)
     """Fundamental of the motor's tonal series (log-uniform, capped below Nyquist)."""
 

@@ -34,7 +34,7 @@ from .classify import (
     WindowSpec,
     stratified_folds,
 )
-from .features import FeatureConfig
+from .features import FeatureConfig, Recording
 from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
@@ -275,12 +275,16 @@ class CandidateWindows:
 
 
 def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_AUGMENT,
-                      seed: int = 0) -> CandidateWindows:
+                      seed: int = 0, copies: list[list[Recording]] | None = None
+                      ) -> CandidateWindows:
     """Every recording's training windows (with those of ``augment.copies`` augmented
-    copies of it, :mod:`.augment`) and the windows it is answered on."""
+    copies of it, :mod:`.augment`; ``copies``: made already by :func:`augmented_copies`)
+    and the windows it is answered on."""
     t0 = time.perf_counter()
-    tr = [_training_windows(cand.pipe, it.rec, augment, [seed, i])
-          for i, it in enumerate(ds.items)]
+    if copies is None:
+        copies = augmented_copies(ds, augment, seed)
+    tr = [_training_windows(cand.pipe, it.rec, extra)
+          for it, extra in zip(ds.items, copies, strict=True)]
     te = [cand.pipe.windows(it.rec) for it in ds.items]
     short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
     if short:
@@ -289,14 +293,29 @@ def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_
     return CandidateWindows(tr, te, time.perf_counter() - t0)
 
 
-def _training_windows(pipe: FeaturePipeline, rec, augment: AugmentConfig, seed: list[int]
+def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0
+                     ) -> list[list[Recording]]:
+    """The augmented copies of every recording of ``ds`` (made once, shared by the
+    candidates; reproducible from ``seed`` and the recording's index)."""
+    return [augmented(it.rec, augment, [seed, i]) if augment.copies else []
+            for i, it in enumerate(ds.items)]
+
+
+def _training_windows(pipe: FeaturePipeline, rec: Recording, copies: list[Recording]
                       ) -> Windows:
     w = pipe.windows(rec, training=True)
-    if not augment.copies or not len(w):
+    if not copies or not len(w):
         return w
-    # a copy too short for one window (sped up) adds nothing: skip it
-    ws = [w] + [a for a in (pipe.windows(r, training=True)
-                            for r in augmented(rec, augment, seed)) if len(a)]
+    ws = [w]
+    for r in copies:
+        a = pipe.windows(r, training=True)
+        # of a copy, only what the model answers at run time (the windows from the start;
+        # all of a spectrogram model's): the copies teach invariance at a third of the rows
+        keep = a.growing if a.growing is not None else np.ones(len(a), bool)
+        if keep.any():  # a copy too short for one window (sped up) adds nothing
+            ws.append(Windows(*(getattr(a, f)[keep] for f in
+                                ("inputs", "t_start", "t_end", "level_db", "clipped")),
+                              None if a.growing is None else a.growing[keep]))
     return Windows(*(np.concatenate([getattr(a, f) for a in ws]) for f in
                      ("inputs", "t_start", "t_end", "level_db", "clipped")),
                    None if w.growing is None else np.concatenate([a.growing for a in ws]))

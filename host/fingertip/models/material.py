@@ -45,6 +45,7 @@ from .candidates import (
     accuracy_by_time,
     answers_of,
     calibrated,
+    augmented_copies,
     candidate_windows,
     candidates,
     cnn_projection_s,
@@ -151,9 +152,12 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     oof: dict[str, dict[int, Answers]] = {}
     cws = {}
     t_cv = time.perf_counter()
+    t0 = time.perf_counter()
+    copies = augmented_copies(ds, augment, seed)
+    t_augment = time.perf_counter() - t0
     for cand in list(cands):
         t0 = time.perf_counter()
-        cw = cws[cand.name] = candidate_windows(cand, ds, augment, seed)
+        cw = cws[cand.name] = candidate_windows(cand, ds, augment, seed, copies)
         if cand.name == "cnn" and math.isfinite(cnn_budget_s) and len(cands) > 1:
             need = cnn_projection_s(cw, labels, ds.classes, n_fits, seed=seed)
             if need > cnn_budget_s:
@@ -259,6 +263,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                             "(out of fold, whole recording)"},
         "onnx_max_abs_diff_vs_float64": onnx_diff,
         "timing": {"features_s": round(sum(r["features_s"] for r in results.values()), 3),
+                   "augment_s": round(t_augment, 3),
                    "cross_validation_s": round(t_cv, 3), "train_s": round(t_train, 3),
                    "total_s": round(time.perf_counter() - t_all, 3),
                    "latency_model_ms": results[chosen]["cost"]["latency_model_ms"],
