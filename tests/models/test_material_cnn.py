@@ -1,0 +1,54 @@
+"""The CNN as a material candidate: cross-validated like the others within its budget,
+skipped by the stated rule beyond it, exported with its temperature when chosen."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import soundfile as sf
+from scipy.signal import butter, sosfilt
+
+from fingertip.models.classify import VibrationClassifier
+from fingertip.models.features import read_recording
+from fingertip.models.material import train_material
+
+RATE = 8000
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """Two classes of noise in different bands (1 s each, 6 per class), at any gain."""
+    root = tmp_path_factory.mktemp("bands")
+    rng = np.random.default_rng(0)
+    for label, band in (("low", (200, 600)), ("high", (1500, 3000))):
+        sos = butter(4, [band[0] / (RATE / 2), band[1] / (RATE / 2)], "bandpass",
+                     output="sos")
+        (root / label).mkdir()
+        for i in range(6):
+            x = sosfilt(sos, rng.standard_normal(RATE)) + 0.05 * rng.standard_normal(RATE)
+            x *= 0.3 * 10 ** rng.uniform(-1, 0) / np.abs(x).max()
+            sf.write(root / label / f"{i}.wav", x, RATE, subtype="PCM_16")
+    return root
+
+
+def test_cnn_is_skipped_beyond_its_budget_with_the_reason(folder, tmp_path):
+    r = train_material(folder, tmp_path / "m", folds=2, plot=False,
+                       models=("linear", "cnn"), cnn_budget_s=1e-4)
+    rep = r.report
+    assert set(rep["candidates"]) == {"linear"}
+    assert "exceeds its budget of 0.0001 s" in rep["candidates_skipped"]["cnn"]
+    with pytest.raises(ValueError, match="cnn_budget_s"):
+        train_material(folder, tmp_path / "n", folds=2, cnn_budget_s=0.0)
+
+
+def test_cnn_candidate_is_cross_validated_costed_and_exported(folder, tmp_path):
+    r = train_material(folder, tmp_path / "m", folds=3, plot=False, models=("cnn",),
+                       cnn_budget_s=600.0)
+    rep = r.report
+    assert rep["model"] == "cnn" and not rep["candidates_skipped"]
+    c = rep["candidates"]["cnn"]
+    assert c["cost"]["parameters"] > 1000 and c["cost"]["latency_model_ms"]["p50"] > 0
+    assert rep["accuracy_by_time"]["whole"]["accuracy"] >= 0.9  # two easy classes
+    assert rep["onnx_max_abs_diff_vs_float64"] < 1e-4  # temperature inside the graph
+    clf = VibrationClassifier(r.model_path)
+    res = clf.classify(read_recording(next((folder / "high").glob("*.wav"))))
+    assert res.predictions and res.vote == "high"
