@@ -1,5 +1,7 @@
-"""The CNN as a material candidate: cross-validated like the others within its budget,
-skipped by the stated rule beyond it, exported with its temperature when chosen."""
+"""The CNN as a material candidate (cross-validated like the others within its budget,
+skipped by the stated rule beyond it, exported with its temperature when chosen) and the
+rule that adopts training-time augmentation only when the cross-validation says it is
+free."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,6 +9,7 @@ import pytest
 import soundfile as sf
 from scipy.signal import butter, sosfilt
 
+from fingertip.models.augment import NONE, AugmentConfig
 from fingertip.models.classify import VibrationClassifier
 from fingertip.models.features import read_recording
 from fingertip.models.material import train_material
@@ -52,3 +55,16 @@ def test_cnn_candidate_is_cross_validated_costed_and_exported(folder, tmp_path):
     clf = VibrationClassifier(r.model_path)
     res = clf.classify(read_recording(next((folder / "high").glob("*.wav"))))
     assert res.predictions and res.vote == "high"
+
+
+def test_augmentation_is_adopted_only_when_it_costs_no_accuracy(folder, tmp_path):
+    r = train_material(folder, tmp_path / "a", folds=2, plot=False, models=("linear",),
+                       augment=AugmentConfig(copies=1))
+    aug = r.report["augmentation"]
+    assert aug["settings"]["copies"] == 1
+    assert aug["adopted"] == (aug["mean_accuracy_with"] >= aug["mean_accuracy_without"]
+                              - 0.005)
+    assert ("adopted" if aug["adopted"] else "not adopted") in aug["why"]
+    off = train_material(folder, tmp_path / "b", folds=2, plot=False, models=("linear",),
+                         augment=NONE).report["augmentation"]
+    assert off["adopted"] is False and off["why"] == "no augmentation asked"

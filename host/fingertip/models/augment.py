@@ -10,7 +10,7 @@ the simulator's own hum and motors would say nothing about other people's record
 
 - **speed**: a slide ``s`` times faster shifts a texture's spectrum up by ``s`` (spatial
   wavelength / speed); the recording is resampled so that its frequencies scale by a
-  log-uniform factor (0.5-2 by default) at the same rate (it becomes shorter or longer;
+  log-uniform factor (0.67-1.5 by default) at the same rate (it becomes shorter or longer;
   longer copies are cut to the original length);
 - **hum**: 50 or 60 Hz (either grid, 0.3 % off nominal) with random harmonics up to the
   ninth, odd ones stronger, a slow amplitude wander, at a random level relative to the
@@ -46,7 +46,7 @@ class AugmentConfig:
     p_speed: float = 0.5
     p_hum: float = 0.5
     p_motor: float = 0.5
-    speed: tuple[float, float] = (0.5, 2.0)
+    speed: tuple[float, float] = (0.67, 1.5)
     """Frequency scale factors (log-uniform)."""
     hum_db: tuple[float, float] = (-20.0, 10.0)
     """Hum power relative to the recording's power, dB (uniform)."""

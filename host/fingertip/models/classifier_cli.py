@@ -138,6 +138,8 @@ def _print_material_report(rep: dict) -> None:
     for name, why in rep.get("candidates_skipped", {}).items():
         print(f"  {name:<9}skipped: {why}")
     print(f"chosen: {rep['choice']}")
+    if "augmentation" in rep:
+        print(f"augmentation: {rep['augmentation']['why']}")
     ttd = rep["summary"]["time_to_decision"]
     if ttd.get("threshold") is not None:
         print(f"decisions {100 * ttd['target_accuracy']:g} % right: threshold "

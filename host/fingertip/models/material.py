@@ -45,7 +45,6 @@ from .candidates import (
     accuracy_by_time,
     answers_of,
     calibrated,
-    augmented_copies,
     candidate_windows,
     candidates,
     cnn_projection_s,
@@ -152,12 +151,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     oof: dict[str, dict[int, Answers]] = {}
     cws = {}
     t_cv = time.perf_counter()
-    t0 = time.perf_counter()
-    copies = augmented_copies(ds, augment, seed)
-    t_augment = time.perf_counter() - t0
     for cand in list(cands):
         t0 = time.perf_counter()
-        cw = cws[cand.name] = candidate_windows(cand, ds, augment, seed, copies)
+        cw = cws[cand.name] = candidate_windows(cand, ds)
         if cand.name == "cnn" and math.isfinite(cnn_budget_s) and len(cands) > 1:
             need = cnn_projection_s(cw, labels, ds.classes, n_fits, seed=seed)
             if need > cnn_budget_s:
@@ -181,6 +177,11 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     t_cv = time.perf_counter() - t_cv
     chosen, why = _choose(results, cands)
     cand = next(c for c in cands if c.name == chosen)
+    t0 = time.perf_counter()
+    aug_report = _try_augmentation(cand, ds, augment, seed, labels, sel_folds, results, cws,
+                                   oof)
+    t_augment = time.perf_counter() - t0
+    t_cv += t_augment
     ans = oof[chosen]
     n_sel = len(sel_folds)
     temps = fold_temperatures(ans, labels, n_sel) if ans else []
@@ -247,7 +248,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    "frames": cand.pipe.spec.frames, "min_frames": cand.pipe.spec.min_frames,
                    "stats": list(cand.pipe.spec.stats)},
         "candidates": results, "candidates_skipped": skipped, "choice": why,
-        "augmentation": augment.to_dict(),
+        "augmentation": aug_report,
         "split": split, "seed": seed, "test_fraction": test_fraction if folds <= 1 else None,
         "evaluation": evaluation.to_dict(), "summary": summary,
         "accuracy_by_time": table, "decision_curve": curve,
@@ -295,6 +296,37 @@ def _pooled(ans: dict[int, Answers], labels: np.ndarray) -> tuple[np.ndarray, np
 def _cooled(a: Answers, t: float) -> Answers:
     return Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t), a.t_end, a.fold,
                    a.dist)
+
+
+def _try_augmentation(cand: Candidate, ds: Dataset, augment: AugmentConfig, seed: int,
+                      labels: np.ndarray, folds: list[np.ndarray], results: dict[str, dict],
+                      cws: dict, oof: dict) -> dict:
+    """Cross-validate the chosen candidate again with augmented training recordings
+    (:mod:`.augment`) and keep the augmentation unless it costs more than :data:`TIE` of
+    mean accuracy on the (never augmented) held-out recordings: robustness to other days
+    is taken when it is free on the user's own data, and the report says what it costs when
+    it is not. Updates ``cws`` and ``oof`` in place when adopted."""
+    out = {"settings": augment.to_dict(), "adopted": False,
+           "rule": f"adopted unless the cross-validated mean accuracy drops by more than "
+                   f"{100 * TIE:g} points"}
+    base = results[cand.name]["mean_accuracy"]
+    if not augment.copies or not folds or not math.isfinite(base):
+        out["why"] = "no augmentation asked" if not augment.copies else \
+            "too few recordings to cross-validate it"
+        return out
+    cw = candidate_windows(cand, ds, augment, seed)
+    ans = cross_validate(cand, cw, labels, folds, ds.classes, seed)
+    table = accuracy_by_time(ans, labels)
+    acc = mean_accuracy(table)
+    out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
+                "accuracy_by_time_with": table, "adopted": bool(acc >= base - TIE)})
+    out["why"] = (f"{cand.name} with augmentation: {100 * acc:.2f} % against "
+                  f"{100 * base:.2f} % without: " + ("adopted" if out["adopted"] else
+                                                     "not adopted"))
+    log.info("%s", out["why"])
+    if out["adopted"]:
+        cws[cand.name], oof[cand.name] = cw, ans
+    return out
 
 
 def _choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
