@@ -90,6 +90,9 @@ def test_levels_are_relative_to_the_recording_and_draws_reproducible():
     silent = augment_one(as_recording(np.zeros(800), RATE), np.random.default_rng(0),
                          AugmentConfig(p_speed=0.0))
     assert not np.any(silent.samples)  # nothing to scale a level to: left silent
+    fast = augment_one(as_recording(np.sin(np.arange(44100) * 0.1), 44100.0),
+                       np.random.default_rng(0), AugmentConfig(p_speed=0.0))
+    assert fast.rate == 16000 and len(fast.samples) == 16000  # at the features' rate
 
 
 def test_bad_settings_are_refused():

@@ -32,7 +32,7 @@ from fractions import Fraction
 import numpy as np
 from scipy.signal import butter, resample_poly, sosfilt
 
-from .features import Recording
+from .features import CANONICAL_RATE, Recording, to_working_rate
 
 log = logging.getLogger(__name__)
 
@@ -41,8 +41,10 @@ log = logging.getLogger(__name__)
 class AugmentConfig:
     """How many augmented copies of each training recording, and the ranges drawn from."""
 
-    copies: int = 2
-    """Copies per training recording (0: no augmentation)."""
+    copies: int = 1
+    """Copies per training recording (0: no augmentation). One by default: every training
+    run cross-validates its chosen candidate again with them, within the trainer's time
+    budget."""
     p_speed: float = 0.5
     p_hum: float = 0.5
     p_motor: float = 0.5
@@ -143,9 +145,12 @@ def motor(n: int, rate: float, rng: np.random.Generator,
     return out / max(out.std(), 1e-12)
 
 
-def augment_one(rec: Recording, rng: np.random.Generator, cfg: AugmentConfig) -> Recording:
-    """One random draw of the disturbances of ``cfg`` on ``rec`` (at least one of them)."""
-    x = np.asarray(rec.samples, np.float64)
+def augment_one(rec: Recording, rng: np.random.Generator, cfg: AugmentConfig,
+                canonical: int = CANONICAL_RATE) -> Recording:
+    """One random draw of the disturbances of ``cfg`` on ``rec`` (at least one of them),
+    at the features' working rate (a 44.1 kHz recording is brought to ``canonical`` first,
+    as the features would: the same copy at a third of the cost)."""
+    x, rate = to_working_rate(np.asarray(rec.samples, np.float64), rec.rate, canonical)
     x = x - x.mean()
     which = rng.random(3) < (cfg.p_speed, cfg.p_hum, cfg.p_motor)
     if not which.any():
@@ -159,17 +164,18 @@ def augment_one(rec: Recording, rng: np.random.Generator, cfg: AugmentConfig) ->
     if p > 0:
         if which[1]:
             db = rng.uniform(*cfg.hum_db)
-            x = x + hum(len(x), rec.rate, rng) * math.sqrt(p * 10 ** (db / 10))
+            x = x + hum(len(x), rate, rng) * math.sqrt(p * 10 ** (db / 10))
             what.append(f"hum {db:+.0f} dB")
         if which[2]:
             db = rng.uniform(*cfg.motor_db)
-            x = x + motor(len(x), rec.rate, rng, cfg.motor_hz) * math.sqrt(p * 10 ** (db / 10))
+            x = x + motor(len(x), rate, rng, cfg.motor_hz) * math.sqrt(p * 10 ** (db / 10))
             what.append(f"motor {db:+.0f} dB")
-    return Recording(x, rec.rate, f"{rec.source} [{', '.join(what)}]", None, 0.0,
+    return Recording(x, rate, f"{rec.source} [{', '.join(what)}]", None, 0.0,
                      {"augmented": what})
 
 
-def augmented(rec: Recording, cfg: AugmentConfig, seed: int | list[int]) -> list[Recording]:
+def augmented(rec: Recording, cfg: AugmentConfig, seed: int | list[int],
+              canonical: int = CANONICAL_RATE) -> list[Recording]:
     """``cfg.copies`` augmented copies of ``rec`` (reproducible from ``seed``)."""
     rng = np.random.default_rng(seed)
-    return [augment_one(rec, rng, cfg) for _ in range(cfg.copies)]
+    return [augment_one(rec, rng, cfg, canonical) for _ in range(cfg.copies)]

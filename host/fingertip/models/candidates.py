@@ -34,7 +34,7 @@ from .classify import (
     WindowSpec,
     stratified_folds,
 )
-from .features import FeatureConfig, Recording
+from .features import CANONICAL_RATE, FeatureConfig, Recording
 from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
@@ -282,7 +282,7 @@ def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_
     and the windows it is answered on."""
     t0 = time.perf_counter()
     if copies is None:
-        copies = augmented_copies(ds, augment, seed)
+        copies = augmented_copies(ds, augment, seed, cand.pipe.cfg.canonical_rate)
     tr = [_training_windows(cand.pipe, it.rec, extra)
           for it, extra in zip(ds.items, copies, strict=True)]
     te = [cand.pipe.windows(it.rec) for it in ds.items]
@@ -293,11 +293,11 @@ def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_
     return CandidateWindows(tr, te, time.perf_counter() - t0)
 
 
-def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0
-                     ) -> list[list[Recording]]:
-    """The augmented copies of every recording of ``ds`` (made once, shared by the
-    candidates; reproducible from ``seed`` and the recording's index)."""
-    return [augmented(it.rec, augment, [seed, i]) if augment.copies else []
+def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0,
+                     canonical: int = CANONICAL_RATE) -> list[list[Recording]]:
+    """The augmented copies of every recording of ``ds`` (reproducible from ``seed`` and
+    the recording's index), at the features' working rate."""
+    return [augmented(it.rec, augment, [seed, i], canonical) if augment.copies else []
             for i, it in enumerate(ds.items)]
 
 

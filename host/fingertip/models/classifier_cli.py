@@ -415,9 +415,10 @@ def add_parsers(sub) -> None:
                    default=60.0, metavar="S",
                    help="cross-validate the CNN candidate only when its projected training "
                         "time is at most S seconds (default 60)")
-    m.add_argument("--augment", type=number(int, 0, 20), default=2, metavar="N",
-                   help="augmented copies of each training recording: other speeds, mains "
-                        "hum, motor noise (default 2; 0: none)")
+    m.add_argument("--augment", type=number(int, 0, 20), default=1, metavar="N",
+                   help="augmented copies of each training recording (other speeds, mains "
+                        "hum, motor noise), adopted when the cross-validation finds them "
+                        "free (default 1; 0: none)")
     m.add_argument("--epochs", type=number(int, 0, 100_000, lo_open=True), default=300,
                    help="most training epochs (default 300; early stopping)")
     m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",

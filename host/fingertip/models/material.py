@@ -121,7 +121,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     (``test_fraction`` held out); the choice and the calibration use a cross-validation of
     the training recordings only. ``models``: the candidates (see
     :data:`~fingertip.models.candidates.CANDIDATES`). ``augment``: augmented copies of
-    each training recording (:mod:`.augment`; None: the defaults, two copies; only the
+    each training recording (:mod:`.augment`; None: the defaults, one copy; only the
     training windows of each fold are augmented, never the answers scored).
     """
     augment = AugmentConfig() if augment is None else augment
