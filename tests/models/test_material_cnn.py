@@ -1,5 +1,5 @@
-"""The CNN as a material candidate (cross-validated like the others within its budget,
-skipped by the stated rule beyond it, exported with its temperature when chosen) and the
+"""The CNN as a material candidate (cross-validated like the others within its budget of
+work, skipped by the stated rule beyond it, exported with its temperature when chosen) and the
 rule that adopts training-time augmentation only when the cross-validation says it is
 free."""
 from __future__ import annotations
@@ -33,19 +33,34 @@ def folder(tmp_path_factory):
     return root
 
 
+def cnn_work_of(folder, n_fits: int) -> int:
+    """The CNN candidate's projected work on ``folder``, counted here from its windows."""
+    from fingertip.models.candidates import (CNN_EPOCHS, candidate_windows, candidates,
+                                             choose_setup)
+    from fingertip.models.classify import load_folder
+
+    ds = load_folder(folder)
+    cw = candidate_windows(candidates(choose_setup(ds), ("cnn",))[0], ds)
+    return sum(len(w) for w in cw.train) * CNN_EPOCHS * n_fits
+
+
 def test_cnn_is_skipped_beyond_its_budget_with_the_reason(folder, tmp_path):
-    r = train_material(folder, tmp_path / "m", folds=2, plot=False,
-                       models=("linear", "cnn"), cnn_budget_s=1e-4)
-    rep = r.report
-    assert set(rep["candidates"]) == {"linear"}
-    assert "exceeds its budget of 0.0001 s" in rep["candidates_skipped"]["cnn"]
-    with pytest.raises(ValueError, match="cnn_budget_s"):
-        train_material(folder, tmp_path / "n", folds=2, cnn_budget_s=0.0)
+    need = cnn_work_of(folder, 3)  # 2 folds and the final fit
+    assert need > 0
+    reports = [train_material(folder, tmp_path / f"m{i}", folds=2, plot=False,
+                              models=("linear", "cnn"), cnn_budget=need - 1).report
+               for i in range(2)]
+    for rep in reports:  # counted, not timed: the same decision and reason every run
+        assert set(rep["candidates"]) == {"linear"}
+        assert rep["candidates_skipped"]["cnn"] == reports[0]["candidates_skipped"]["cnn"]
+    assert (f"projected work {need} window-epochs" in reports[0]["candidates_skipped"]["cnn"]
+            and f"exceeds its budget of {need - 1:g}" in reports[0]["candidates_skipped"]["cnn"])
+    with pytest.raises(ValueError, match="cnn_budget"):
+        train_material(folder, tmp_path / "n", folds=2, cnn_budget=0.0)
 
 
 def test_cnn_candidate_is_cross_validated_costed_and_exported(folder, tmp_path):
-    r = train_material(folder, tmp_path / "m", folds=3, plot=False, models=("cnn",),
-                       cnn_budget_s=600.0)
+    r = train_material(folder, tmp_path / "m", folds=3, plot=False, models=("cnn",))
     rep = r.report
     assert rep["model"] == "cnn" and not rep["candidates_skipped"]
     c = rep["candidates"]["cnn"]

@@ -41,10 +41,14 @@ log = logging.getLogger(__name__)
 
 CANDIDATES = ("baseline", "linear", "mlp", "cnn")
 CNN_EPOCHS = 30
-CNN_BUDGET_S = 60.0
-"""The CNN candidate is cross-validated only when its projected training time (every fold
-and the final fit) is within this (half the trainer's 120 s goal for 700 slides of 2 s:
-the other candidates need the rest); each of its fits is also capped at its share."""
+CNN_WORK_LIMIT = 250_000
+"""The CNN candidate is cross-validated only when its projected work, in window-epochs
+(training windows of every recording x :data:`CNN_EPOCHS` x fits: the folds and the final
+model; :func:`cnn_work`), is at most this. The rule counts, it does not time: the same
+folder always gives the same candidates, on any machine and at any load. The limit is
+about a minute of the numpy CNN's training at the rate measured on the project's VM (225 us
+per window-epoch, one thread, load average 4: docs/classifiers.md), half the trainer's
+120 s goal for 700 slides of 2 s."""
 LONGEST_S = 2.0
 """The longest window: beyond it, windows slide and their answers are averaged."""
 FIRST_S = 0.25
@@ -275,17 +279,19 @@ class CandidateWindows:
 
 
 def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_AUGMENT,
-                      seed: int = 0, copies: list[list[Recording]] | None = None
-                      ) -> CandidateWindows:
+                      seed: int = 0, copies: list[list[Recording]] | None = None,
+                      clean: CandidateWindows | None = None) -> CandidateWindows:
     """Every recording's training windows (with those of ``augment.copies`` augmented
     copies of it, :mod:`.augment`; ``copies``: made already by :func:`augmented_copies`)
-    and the windows it is answered on."""
+    and the windows it is answered on. ``clean``: this candidate's windows without
+    augmentation, computed already: reused, so only the copies' windows are computed."""
     t0 = time.perf_counter()
     if copies is None:
         copies = augmented_copies(ds, augment, seed, cand.pipe.cfg.canonical_rate)
-    tr = [_training_windows(cand.pipe, it.rec, extra)
-          for it, extra in zip(ds.items, copies, strict=True)]
-    te = [cand.pipe.windows(it.rec) for it in ds.items]
+    own = [None] * len(ds.items) if clean is None else clean.train
+    tr = [_training_windows(cand.pipe, it.rec, extra, w)
+          for it, extra, w in zip(ds.items, copies, own, strict=True)]
+    te = [cand.pipe.windows(it.rec) for it in ds.items] if clean is None else clean.test
     short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
     if short:
         log.warning("%d recording(s) shorter than the first window give no answer: %s",
@@ -301,9 +307,10 @@ def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0,
             for i, it in enumerate(ds.items)]
 
 
-def _training_windows(pipe: FeaturePipeline, rec: Recording, copies: list[Recording]
-                      ) -> Windows:
-    w = pipe.windows(rec, training=True)
+def _training_windows(pipe: FeaturePipeline, rec: Recording, copies: list[Recording],
+                      w: Windows | None = None) -> Windows:
+    if w is None:
+        w = pipe.windows(rec, training=True)
     if not copies or not len(w):
         return w
     ws = [w]
@@ -376,20 +383,12 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
     return out
 
 
-def cnn_projection_s(cw: CandidateWindows, labels: np.ndarray, classes: list[str],
-                     n_fits: int, epochs: int = CNN_EPOCHS, probe: int = 256,
-                     seed: int = 0) -> float:
-    """Projected seconds of the CNN candidate's training: one epoch timed on up to
-    ``probe`` of its training windows, scaled to all of them, ``epochs`` epochs (no early
-    stop: an upper bound) and ``n_fits`` fits (the folds and the final model)."""
-    from .cnn import train_cnn
-
-    x, y, _ = training_rows(cw, labels, np.arange(len(labels)), len(classes))
-    idx = np.random.default_rng(seed).choice(len(x), min(probe, len(x)), replace=False)
-    t0 = time.perf_counter()
-    train_cnn(x[idx], y[idx], classes=classes, epochs=1, seed=seed)
-    per_window = (time.perf_counter() - t0) / len(idx)
-    return per_window * len(x) * epochs * n_fits
+def cnn_work(cw: CandidateWindows, n_fits: int, epochs: int = CNN_EPOCHS) -> int:
+    """Projected work of the CNN candidate's training in window-epochs: its training
+    windows of every recording x ``epochs`` x ``n_fits`` (the folds and the final model).
+    An upper bound (a fold trains on fewer recordings; early stopping usually ends sooner)
+    that depends on the data only, never on the machine."""
+    return sum(len(w) for w in cw.train) * epochs * n_fits
 
 
 # --- scores ---------------------------------------------------------------------------------

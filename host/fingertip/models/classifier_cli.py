@@ -100,7 +100,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                            seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
                            epochs=args.epochs, folds=args.folds, models=args.models,
                            augment=AugmentConfig(copies=args.augment),
-                           cnn_budget_s=args.cnn_budget)
+                           cnn_budget=args.cnn_budget)
     except _user_errors() as e:
         log.error("%s", e)
         return 2
@@ -411,10 +411,11 @@ def add_parsers(sub) -> None:
                    metavar="NAME[,NAME...]",
                    help="candidate models compared by cross-validation (default "
                         "baseline,linear,mlp,cnn; the CNN only within --cnn-budget)")
-    m.add_argument("--cnn-budget", type=number(float, 0, 1e6, lo_open=True),
-                   default=60.0, metavar="S",
-                   help="cross-validate the CNN candidate only when its projected training "
-                        "time is at most S seconds (default 60)")
+    m.add_argument("--cnn-budget", type=number(float, 0, 1e12, lo_open=True),
+                   default=None, metavar="N",
+                   help="cross-validate the CNN candidate only when its projected work "
+                        "(training windows x 30 epochs x fits) is at most N window-epochs "
+                        "(default 250000, about a minute; counted from the data, not timed)")
     m.add_argument("--augment", type=number(int, 0, 20), default=1, metavar="N",
                    help="augmented copies of each training recording (other speeds, mains "
                         "hum, motor noise), adopted when the cross-validation finds them "

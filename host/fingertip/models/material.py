@@ -37,8 +37,8 @@ from .anytime import DECISION_TIMES
 from .augment import AugmentConfig
 from .candidates import (
     CANDIDATES,
-    CNN_BUDGET_S,
     CNN_EPOCHS,
+    CNN_WORK_LIMIT,
     Answers,
     Candidate,
     Fitted,
@@ -47,7 +47,7 @@ from .candidates import (
     calibrated,
     candidate_windows,
     candidates,
-    cnn_projection_s,
+    cnn_work,
     choose_setup,
     cross_validate,
     decision_curve,
@@ -110,7 +110,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    kind: str = "material", plot: bool = True,
                    models: tuple[str, ...] = CANDIDATES,
                    augment: AugmentConfig | None = None,
-                   cnn_budget_s: float = CNN_BUDGET_S) -> TrainResult:
+                   cnn_budget: float | None = None) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
@@ -123,10 +123,16 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     :data:`~fingertip.models.candidates.CANDIDATES`). ``augment``: augmented copies of
     each training recording (:mod:`.augment`; None: the defaults, one copy; only the
     training windows of each fold are augmented, never the answers scored).
+    ``cnn_budget``: the CNN candidate is cross-validated only when its projected work
+    (:func:`~fingertip.models.candidates.cnn_work`, window-epochs) is at most this (inf: no
+    limit; None: :data:`~fingertip.models.candidates.CNN_WORK_LIMIT`); a count from the
+    data, so the same folder always gives the same candidates.
     """
     augment = AugmentConfig() if augment is None else augment
-    if not cnn_budget_s > 0:
-        raise ValueError(f"cnn_budget_s must be > 0 (inf: no limit), not {cnn_budget_s}")
+    cnn_budget = CNN_WORK_LIMIT if cnn_budget is None else cnn_budget
+    if not cnn_budget > 0:
+        raise ValueError(f"cnn_budget must be > 0 window-epochs (inf: no limit), not "
+                         f"{cnn_budget}")
     t_all = time.perf_counter()
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
     setup = choose_setup(ds, features, max_hz, window_s, step_s)
@@ -143,9 +149,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         sel_folds = [train_idx[f] for f in stratified_folds(labels[train_idx], inner, seed)] \
             if inner >= 2 else []
     n_fits = len(sel_folds) + 1
-    cands = candidates(setup, models, hidden, epochs,
-                       cnn_max_seconds=cnn_budget_s / n_fits
-                       if math.isfinite(cnn_budget_s) else None)
+    # no time cap on the CNN's fits: a cap would make its result depend on the machine's
+    # load; the work rule below bounds it instead
+    cands = candidates(setup, models, hidden, epochs)
     results: dict[str, dict] = {}
     skipped: dict[str, str] = {}
     oof: dict[str, dict[int, Answers]] = {}
@@ -154,12 +160,13 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     for cand in list(cands):
         t0 = time.perf_counter()
         cw = cws[cand.name] = candidate_windows(cand, ds)
-        if cand.name == "cnn" and math.isfinite(cnn_budget_s) and len(cands) > 1:
-            need = cnn_projection_s(cw, labels, ds.classes, n_fits, seed=seed)
-            if need > cnn_budget_s:
-                skipped["cnn"] = (f"projected training {need:.0f} s ({n_fits} fits of at "
-                                  f"most {CNN_EPOCHS} epochs) exceeds its budget of "
-                                  f"{cnn_budget_s:g} s")
+        if cand.name == "cnn" and len(cands) > 1:
+            need = cnn_work(cw, n_fits)
+            if need > cnn_budget:
+                skipped["cnn"] = (f"projected work {need} window-epochs "
+                                  f"({sum(len(w) for w in cw.train)} training windows x "
+                                  f"{CNN_EPOCHS} epochs x {n_fits} fits) exceeds its "
+                                  f"budget of {cnn_budget:g}")
                 log.info("candidate cnn skipped: %s", skipped["cnn"])
                 cands.remove(cand)
                 del cws[cand.name]
@@ -314,7 +321,7 @@ def _try_augmentation(cand: Candidate, ds: Dataset, augment: AugmentConfig, seed
         out["why"] = "no augmentation asked" if not augment.copies else \
             "too few recordings to cross-validate it"
         return out
-    cw = candidate_windows(cand, ds, augment, seed)
+    cw = candidate_windows(cand, ds, augment, seed, clean=cws[cand.name])
     ans = cross_validate(cand, cw, labels, folds, ds.classes, seed)
     table = accuracy_by_time(ans, labels)
     acc = mean_accuracy(table)
