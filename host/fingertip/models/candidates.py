@@ -280,23 +280,41 @@ class CandidateWindows:
 
 def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_AUGMENT,
                       seed: int = 0, copies: list[list[Recording]] | None = None,
-                      clean: CandidateWindows | None = None) -> CandidateWindows:
+                      clean: CandidateWindows | None = None,
+                      powers: Sequence[np.ndarray] | None = None) -> CandidateWindows:
     """Every recording's training windows (with those of ``augment.copies`` augmented
     copies of it, :mod:`.augment`; ``copies``: made already by :func:`augmented_copies`)
     and the windows it is answered on. ``clean``: this candidate's windows without
-    augmentation, computed already: reused, so only the copies' windows are computed."""
+    augmentation, computed already: reused, so only the copies' windows are computed.
+    ``powers``: every recording's band power under this candidate's features
+    (:func:`band_powers`, shared by the candidates whose features are the same); without
+    them each recording's is computed once here, for its training and answered windows."""
     t0 = time.perf_counter()
     if copies is None:
         copies = augmented_copies(ds, augment, seed, cand.pipe.cfg.canonical_rate)
-    own = [None] * len(ds.items) if clean is None else clean.train
-    tr = [_training_windows(cand.pipe, it.rec, extra, w)
-          for it, extra, w in zip(ds.items, copies, own, strict=True)]
-    te = [cand.pipe.windows(it.rec) for it in ds.items] if clean is None else clean.test
+    if clean is not None:
+        tr = [_training_windows(cand.pipe, it.rec, extra, w)
+              for it, extra, w in zip(ds.items, copies, clean.train, strict=True)]
+        te = clean.test
+    else:
+        if powers is None:
+            powers = band_powers(cand.pipe, ds)
+        tr = [_training_windows(cand.pipe, it.rec, extra, cand.pipe.windows(it.rec, True, pw))
+              for it, extra, pw in zip(ds.items, copies, powers, strict=True)]
+        te = [cand.pipe.windows(it.rec, power=pw)
+              for it, pw in zip(ds.items, powers, strict=True)]
     short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
     if short:
         log.warning("%d recording(s) shorter than the first window give no answer: %s",
                     len(short), ", ".join(short[:5]))
     return CandidateWindows(tr, te, time.perf_counter() - t0)
+
+
+def band_powers(pipe: FeaturePipeline, ds: Dataset) -> list[np.ndarray]:
+    """Every recording's band power under ``pipe``'s features (the costly part of the
+    windows: the short-time spectrum), to share between candidates and between a
+    recording's training and answered windows."""
+    return [pipe.power(it.rec) for it in ds.items]
 
 
 def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0,

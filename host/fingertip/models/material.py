@@ -44,6 +44,7 @@ from .candidates import (
     Fitted,
     accuracy_by_time,
     answers_of,
+    band_powers,
     calibrated,
     candidate_windows,
     candidates,
@@ -157,9 +158,15 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     oof: dict[str, dict[int, Answers]] = {}
     cws = {}
     t_cv = time.perf_counter()
+    powers: list[np.ndarray] | None = None
     for cand in list(cands):
         t0 = time.perf_counter()
-        cw = cws[cand.name] = candidate_windows(cand, ds)
+        # the candidates on the adapted bands share one short-time spectrum per recording
+        # (the first of them pays for it in its features_s)
+        same = cand.pipe.cfg == setup.cfg
+        if same and powers is None:
+            powers = band_powers(cand.pipe, ds)
+        cw = cws[cand.name] = candidate_windows(cand, ds, powers=powers if same else None)
         if cand.name == "cnn" and len(cands) > 1:
             need = cnn_work(cw, n_fits)
             if need > cnn_budget:
