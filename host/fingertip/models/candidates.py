@@ -383,10 +383,13 @@ def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
 
 
 def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
-                   folds: list[np.ndarray], classes: list[str], seed: int
+                   folds: list[np.ndarray], classes: list[str], seed: int,
+                   stop: Callable[[dict[int, Answers]], bool] | None = None
                    ) -> dict[int, Answers]:
     """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
-    is trained on the recordings of the other folds)."""
+    is trained on the recordings of the other folds). ``stop``: asked after each fold
+    but the last with the answers so far; True ends the cross-validation there (the
+    answers returned are then those of the folds run)."""
     pool = np.concatenate(folds)
     out: dict[int, Answers] = {}
     for f, te in enumerate(folds):
@@ -398,6 +401,24 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
         for i in te:
             if len(cw.test[i]):
                 out[int(i)] = answers_of(m, cw.test[i], f, nov)
+        if stop is not None and f < len(folds) - 1 and stop(out):
+            log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
+                     f + 1, len(folds))
+            break
+    return out
+
+
+def best_case(part: dict[int, Answers], every: dict[int, Answers], labels: np.ndarray
+              ) -> dict[int, Answers]:
+    """``part``, completed with a right and certain answer for each recording of
+    ``every`` it lacks (at the same times): scored, the most a cross-validation that
+    ``part`` began can still reach."""
+    out = dict(part)
+    for i, a in every.items():
+        if i not in out:
+            sure = np.zeros_like(a.run)
+            sure[:, labels[i]] = 1.0
+            out[i] = Answers(sure, sure, a.t_end, a.fold)
     return out
 
 

@@ -44,6 +44,7 @@ from .candidates import (
     Fitted,
     accuracy_by_time,
     answers_of,
+    best_case,
     band_powers,
     calibrated,
     candidate_windows,
@@ -329,11 +330,34 @@ def _try_augmentation(cand: Candidate, ds: Dataset, augment: AugmentConfig, seed
             "too few recordings to cross-validate it"
         return out
     cw = candidate_windows(cand, ds, augment, seed, clean=cws[cand.name])
-    ans = cross_validate(cand, cw, labels, folds, ds.classes, seed)
+    clean = oof[cand.name]
+    stopped = []
+
+    def lost(part: dict[int, Answers]) -> bool:
+        # even if every recording still to answer were right, the rule would reject it:
+        # the remaining folds cannot change the decision, so they are not run
+        if mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) \
+                < base - TIE:
+            stopped.append(len({a.fold for a in part.values()}))
+        return bool(stopped)
+
+    ans = cross_validate(cand, cw, labels, folds, ds.classes, seed, stop=lost)
+    done = stopped[0] if stopped else len(folds)
+    if stopped:
+        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+        out.update({"mean_accuracy_without": base, "mean_accuracy_with": None,
+                    "mean_accuracy_with_at_most": bound, "folds_run": done,
+                    "adopted": False})
+        out["why"] = (f"{cand.name} with augmentation: at most {100 * bound:.2f} % (after "
+                      f"{done} of {len(folds)} folds, the others counted right) against "
+                      f"{100 * base:.2f} % without: not adopted")
+        log.info("%s", out["why"])
+        return out
     table = accuracy_by_time(ans, labels)
     acc = mean_accuracy(table)
     out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
-                "accuracy_by_time_with": table, "adopted": bool(acc >= base - TIE)})
+                "accuracy_by_time_with": table, "folds_run": done,
+                "adopted": bool(acc >= base - TIE)})
     out["why"] = (f"{cand.name} with augmentation: {100 * acc:.2f} % against "
                   f"{100 * base:.2f} % without: " + ("adopted" if out["adopted"] else
                                                      "not adopted"))
