@@ -16,7 +16,11 @@
 - Shifts: the model exported by the 2 s run faces held-out slides it never saw (new seeds),
   then slides under one change each: input gain, recording rate, sliding speed and
   pressing force outside the training ranges, strong mains hum, the hand's motor noise
-  (:mod:`fingertip.sim.physics.disturbances`).
+  (:mod:`fingertip.sim.physics.disturbances`); a key per shift.
+- Real recordings from other people (:mod:`tests.bench.public_sets`, Debian's
+  hydrogen-drumkits, when its files are there): the trainer at default options, 5 folds,
+  on 65 hand-percussion knocks (13 objects) and 283 drum hits (5 instruments, five kits),
+  and the CNN candidate alone on the knocks (its accuracy and cost).
 """
 from __future__ import annotations
 
@@ -54,7 +58,31 @@ DESCRIPTION = {
                                   "recording", None),
     "material_shift_min_accuracy": ("lowest whole-recording accuracy over the shifts",
                                     None),
+    "public_knocks_accuracy": ("real hits, 13 hand-percussion objects x 5 (Debian "
+                               "hydrogen-drumkits, 44.1 kHz), train material --folds 5 "
+                               "defaults, whole hit, per recording", (">=", 0.98)),
+    "public_knocks_0_25s_accuracy": ("same, first 0.25 s of each hit", None),
+    "public_drums_accuracy": ("real hits, kick/snare/hi-hat/tom/cymbal from five kits "
+                              "(283 hits, unbalanced), same protocol, whole hit (<= 1 s)",
+                              (">=", 0.98)),
+    "public_drums_0_25s_accuracy": ("same, first 0.25 s of each hit", None),
+    "public_knocks_cnn_accuracy": ("the CNN candidate alone on the knocks (at most "
+                                   "30 epochs per fit, no augmentation), whole hit", None),
+    "public_knocks_cnn_train_s_one_fold": ("its training time, one fold", None),
+    "public_knocks_cnn_latency_ms": ("its onnxruntime latency per answer (p50)", None),
 }
+
+
+def shift_key(name: str) -> str:
+    return "material_shift_" + name.split(" (")[0].replace(" ", "_").replace("/", "_") \
+        .replace(".", "_")
+
+
+for _name in ("slow 5 mm/s", "fast 60 mm/s", "light 0.25 N", "hard 4 N", "mains hum x3",
+              "mains hum x10", "motor noise 1 rad/s", "motor noise 3 rad/s",
+              "recorded at 16 kHz", "gain x0.05"):
+    DESCRIPTION[shift_key(_name)] = (f"model of the 2 s run, 70 held-out slides: {_name} "
+                                     "(never seen in training), whole recording", None)
 
 
 def _pin() -> None:
@@ -148,6 +176,7 @@ def shift_accuracy(model_path: Path, classes: list[str], n: int = N_SHIFT,
 
 
 def run() -> dict[str, float]:
+    from fingertip.models.augment import NONE, AugmentConfig
     from fingertip.models.candidates import candidate_windows, candidates, unknown_auroc
     from fingertip.models.classify import load_folder
     from fingertip.models.material import train_material
@@ -179,7 +208,8 @@ def run() -> dict[str, float]:
         from fingertip.models.candidates import choose_setup
 
         cand = candidates(choose_setup(ds), (r8.report["model"],))[0]
-        cw = candidate_windows(cand, ds)
+        aug = AugmentConfig() if r8.report["augmentation"]["adopted"] else NONE
+        cw = candidate_windows(cand, ds, aug, SEED)  # as the trainer chose
         unk = [unknown_auroc(cand, cw, ds, c, 5, SEED) for c in ds.classes]
         out["material_unknown_auroc"] = round(float(np.mean([u["auroc"] for u in unk])), 4)
         out["material_unknown_auroc_min"] = round(float(min(u["auroc"] for u in unk)), 4)
@@ -187,12 +217,53 @@ def run() -> dict[str, float]:
         out["material_heldout_accuracy"] = round(shifts["held-out (new slides)"]["whole"], 4)
         out["material_shift_min_accuracy"] = round(min(v["whole"] for v in shifts.values()),
                                                    4)
+        for name, v in shifts.items():
+            if shift_key(name) in DESCRIPTION:
+                out[shift_key(name)] = round(v["whole"], 4)
+        out.update(public_sets(root))
         _LAST.update({"r8": r8.report, "r2": r2.report, "full": full.report,
                       "shifts": shifts, "unknown": unk})
     return out
 
 
 _LAST: dict = {}
+
+
+def public_sets(root: Path) -> dict[str, float]:
+    """The trainer at default options (5 folds) on real hits that Debian's
+    hydrogen-drumkits ships (:mod:`tests.bench.public_sets`; the folder from
+    ``FINGERTIP_DRUMKITS`` or Debian's), and the CNN candidate forced on the knocks. Empty,
+    with a warning, when the package's files are not there."""
+    import logging
+
+    from fingertip.models.augment import NONE
+    from fingertip.models.material import train_material
+    from tests.bench import public_sets as ps
+
+    base = ps.find_root(os.environ.get("FINGERTIP_DRUMKITS"))
+    if base is None:
+        logging.warning("hydrogen-drumkits not found (apt-get install hydrogen-drumkits, or "
+                        "set FINGERTIP_DRUMKITS): no public-recording figures")
+        return {}
+    out: dict[str, float] = {}
+    reports = {}
+    for name, make in (("knocks", ps.knock_set), ("drums", ps.drum_set)):
+        counts = make(root / name, base)
+        r = train_material(root / name, root / f"{name}_model", folds=5, seed=SEED,
+                           plot=False).report
+        acc = r["accuracy_by_time"]
+        out[f"public_{name}_accuracy"] = round(acc["whole"]["accuracy"], 4)
+        out[f"public_{name}_0_25s_accuracy"] = round(acc["0.25 s"]["accuracy"], 4)
+        reports[name] = {"counts": counts, "report": r}
+    r = train_material(root / "knocks", root / "knocks_cnn", folds=5, seed=SEED, plot=False,
+                       models=("cnn",), augment=NONE).report
+    out["public_knocks_cnn_accuracy"] = round(r["accuracy_by_time"]["whole"]["accuracy"], 4)
+    cost = r["candidates"]["cnn"]["cost"]
+    out["public_knocks_cnn_train_s_one_fold"] = round(cost["train_s_one_fold"], 2)
+    out["public_knocks_cnn_latency_ms"] = round(cost["latency_model_ms"]["p50"], 4)
+    reports["knocks_cnn"] = {"report": r}
+    _LAST["public"] = reports
+    return out
 
 
 def tables(r: dict[str, float]) -> dict[str, str]:
@@ -219,4 +290,16 @@ def tables(r: dict[str, float]) -> dict[str, str]:
                     f"{100 * v['whole']:.1f} % |")
     out["Material: accuracy when conditions change (model trained on 2 s slides at 8 kHz)"] \
         = "\n".join(rows)
+    if "public" in _LAST:
+        rows = ["| set | classes | recordings | model | 0.25 s | whole |",
+                "|---|---|---|---|---|---|"]
+        for name, v in _LAST["public"].items():
+            rep = v["report"]
+            acc = rep["accuracy_by_time"]
+            rows.append(f"| {name} | {len(rep['dataset']['classes'])} | "
+                        f"{rep['summary']['test_recordings']} | {rep['model']} | "
+                        f"{100 * acc['0.25 s']['accuracy']:.1f} % | "
+                        f"{100 * acc['whole']['accuracy']:.1f} % |")
+        out["Material trainer on real hits (Debian hydrogen-drumkits, 5 folds, defaults)"] = \
+            "\n".join(rows)
     return out

@@ -127,7 +127,7 @@ def test_a_model_runs_at_lower_rates_only_when_its_bands_fit(data, trained, tmp_
 def test_onnx_matches_float64_and_gain_does_not_matter(data, trained):
     clf = VibrationClassifier(trained.model_path, kind="material")
     assert clf.classes == sorted(PAPER_SEVEN)
-    assert clf.architecture == trained.report["model"] in ("baseline", "linear", "mlp")
+    assert clf.architecture == trained.report["model"] in ("baseline", "linear", "mlp", "cnn")
     rec = read_recording(data / "44k" / "tpu" / "tpu_03.wav")
     w = clf.pipeline.windows(rec)
     ref = apply_temperature(trained.model.forward(w.inputs.astype(np.float64)),
@@ -257,7 +257,10 @@ def test_short_recordings_at_low_rates_train_without_options(data, tmp_path):
     r = train_material(low, tmp_path / "m2k2", folds=3)
     rep = r.report
     assert rep["features"]["f_hi"] == 990 and rep["setup"]["features"]["f_lo"] == 30
-    assert set(rep["candidates"]) == {"baseline", "linear", "mlp"}
+    # the CNN is cross-validated or skipped by its budget rule, with the reason, never both
+    assert set(rep["candidates"]) | set(rep["candidates_skipped"]) == {"baseline", "linear",
+                                                                        "mlp", "cnn"}
+    assert not set(rep["candidates"]) & set(rep["candidates_skipped"])
     for c in rep["candidates"].values():
         assert set(c["accuracy_by_time"]) == {"0.25 s", "0.5 s", "1 s", "2 s", "whole"}
         assert c["accuracy_by_time"]["2 s"]["recordings"] == 0      # 1 s slides

@@ -88,6 +88,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     whole recording), candidate models (a log-spectrum logistic-regression baseline,
     logistic regression on log bands, an MLP) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
+    from ..models.augment import AugmentConfig
     from ..models.classify import json_safe
     from ..models.features import FeatureConfig
     from ..models.material import train_material
@@ -97,7 +98,9 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                            features=FeatureConfig(canonical_rate=args.canonical_rate),
                            hidden=args.hidden, test_fraction=args.test_fraction,
                            seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
-                           epochs=args.epochs, folds=args.folds, models=args.models)
+                           epochs=args.epochs, folds=args.folds, models=args.models,
+                           augment=AugmentConfig(copies=args.augment),
+                           cnn_budget=args.cnn_budget)
     except _user_errors() as e:
         log.error("%s", e)
         return 2
@@ -132,7 +135,11 @@ def _print_material_report(rep: dict) -> None:
         cost = c.get("cost", {})
         print(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
               f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f}")
+    for name, why in rep.get("candidates_skipped", {}).items():
+        print(f"  {name:<9}skipped: {why}")
     print(f"chosen: {rep['choice']}")
+    if "augmentation" in rep:
+        print(f"augmentation: {rep['augmentation']['why']}")
     ttd = rep["summary"]["time_to_decision"]
     if ttd.get("threshold") is not None:
         print(f"decisions {100 * ttd['target_accuracy']:g} % right: threshold "
@@ -400,10 +407,19 @@ def add_parsers(sub) -> None:
                         "recordings)")
     m.add_argument("--hidden", type=_hidden, default=(64,), metavar="N[,N...]",
                    help="hidden layer sizes of the MLP candidate (default 64)")
-    m.add_argument("--models", type=_models, default=("baseline", "linear", "mlp"),
+    m.add_argument("--models", type=_models, default=("baseline", "linear", "mlp", "cnn"),
                    metavar="NAME[,NAME...]",
                    help="candidate models compared by cross-validation (default "
-                        "baseline,linear,mlp)")
+                        "baseline,linear,mlp,cnn; the CNN only within --cnn-budget)")
+    m.add_argument("--cnn-budget", type=number(float, 0, 1e12, lo_open=True),
+                   default=None, metavar="N",
+                   help="cross-validate the CNN candidate only when its projected work "
+                        "(training windows x 30 epochs x fits) is at most N window-epochs "
+                        "(default 250000, about a minute; counted from the data, not timed)")
+    m.add_argument("--augment", type=number(int, 0, 20), default=1, metavar="N",
+                   help="augmented copies of each training recording (other speeds, mains "
+                        "hum, motor noise), adopted when the cross-validation finds them "
+                        "free (default 1; 0: none)")
     m.add_argument("--epochs", type=number(int, 0, 100_000, lo_open=True), default=300,
                    help="most training epochs (default 300; early stopping)")
     m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",

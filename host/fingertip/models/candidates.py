@@ -23,6 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .augment import NONE as NO_AUGMENT
+from .augment import AugmentConfig, augmented
 from .anytime import DECISION_TIMES, at_time, running, time_label
 from .classify import (
     Dataset,
@@ -32,12 +34,21 @@ from .classify import (
     WindowSpec,
     stratified_folds,
 )
-from .features import FeatureConfig
+from .features import CANONICAL_RATE, FeatureConfig, Recording
 from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
 
-CANDIDATES = ("baseline", "linear", "mlp")
+CANDIDATES = ("baseline", "linear", "mlp", "cnn")
+CNN_EPOCHS = 30
+CNN_WORK_LIMIT = 250_000
+"""The CNN candidate is cross-validated only when its projected work, in window-epochs
+(training windows of every recording x :data:`CNN_EPOCHS` x fits: the folds and the final
+model; :func:`cnn_work`), is at most this. The rule counts, it does not time: the same
+folder always gives the same candidates, on any machine and at any load. The limit is
+about a minute of the numpy CNN's training at the rate measured on the project's VM (225 us
+per window-epoch, one thread, load average 4: docs/classifiers.md), half the trainer's
+120 s goal for 700 slides of 2 s."""
 LONGEST_S = 2.0
 """The longest window: beyond it, windows slide and their answers are averaged."""
 FIRST_S = 0.25
@@ -184,8 +195,34 @@ def _mlp_trainer(hidden: tuple[int, ...], epochs: int):
     return train
 
 
+def _cnn_trainer(epochs: int, max_seconds: float | None):
+    """The small ResNet of :mod:`.cnn` on fixed spectrogram windows, early-stopped on 15 %
+    of the training *recordings* (at least one), each fit capped at ``max_seconds``."""
+    def train(x, y, g, classes, seed) -> Fitted:
+        from .cnn import train_cnn
+
+        rng = np.random.default_rng(seed)
+        groups = np.unique(g)
+        val = np.isin(g, rng.choice(groups, max(1, round(0.15 * len(groups))),
+                                    replace=False))
+        if val.all() or len(np.unique(y[~val])) < len(classes):
+            val[:] = False  # too few recordings to hold some out: the training loss decides
+        m, _ = train_cnn(x[~val], y[~val], classes=classes, x_val=x[val], y_val=y[val],
+                         epochs=epochs, patience=5, max_seconds=max_seconds, seed=seed)
+
+        def export(path, t, meta):
+            p = dict(m.params, **{"out.w": m.params["out.w"] / t,
+                                  "out.b": m.params["out.b"] / t})
+            return replace(m, params=p).to_onnx(path, metadata=meta)
+
+        return Fitted(m.forward, m.n_params, export, m)
+    return train
+
+
 def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
-               hidden: tuple[int, ...] = (64,), epochs: int = 300) -> list[Candidate]:
+               hidden: tuple[int, ...] = (64,), epochs: int = 300,
+               cnn_epochs: int = CNN_EPOCHS, cnn_max_seconds: float | None = None
+               ) -> list[Candidate]:
     cfg = setup.cfg
     out = []
     for name in names:
@@ -207,6 +244,14 @@ def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
                                        f"frame-to-frame change, MLP {list(hidden)}",
                                  FeaturePipeline(cfg, setup.spec(("mean", "std", "flux"))),
                                  _mlp_trainer(hidden, epochs)))
+        elif name == "cnn":
+            f = setup.frames(setup.first_s)
+            spec = WindowSpec(f, setup.step_s, "spectrogram")
+            out.append(Candidate(name, f"small ResNet on {f}-frame log-band spectrograms "
+                                       f"({setup.first_s:g} s) sliding every "
+                                       f"{setup.step_s:g} s, answers averaged",
+                                 FeaturePipeline(cfg, spec),
+                                 _cnn_trainer(cnn_epochs, cnn_max_seconds)))
         else:
             raise ValueError(f"unknown candidate {name!r} (one of {CANDIDATES})")
     return out
@@ -233,15 +278,72 @@ class CandidateWindows:
     seconds: float
 
 
-def candidate_windows(cand: Candidate, ds: Dataset) -> CandidateWindows:
+def candidate_windows(cand: Candidate, ds: Dataset, augment: AugmentConfig = NO_AUGMENT,
+                      seed: int = 0, copies: list[list[Recording]] | None = None,
+                      clean: CandidateWindows | None = None,
+                      powers: Sequence[np.ndarray] | None = None) -> CandidateWindows:
+    """Every recording's training windows (with those of ``augment.copies`` augmented
+    copies of it, :mod:`.augment`; ``copies``: made already by :func:`augmented_copies`)
+    and the windows it is answered on. ``clean``: this candidate's windows without
+    augmentation, computed already: reused, so only the copies' windows are computed.
+    ``powers``: every recording's band power under this candidate's features
+    (:func:`band_powers`, shared by the candidates whose features are the same); without
+    them each recording's is computed once here, for its training and answered windows."""
     t0 = time.perf_counter()
-    tr = [cand.pipe.windows(it.rec, training=True) for it in ds.items]
-    te = [cand.pipe.windows(it.rec) for it in ds.items]
+    if copies is None:
+        copies = augmented_copies(ds, augment, seed, cand.pipe.cfg.canonical_rate)
+    if clean is not None:
+        tr = [_training_windows(cand.pipe, it.rec, extra, w)
+              for it, extra, w in zip(ds.items, copies, clean.train, strict=True)]
+        te = clean.test
+    else:
+        if powers is None:
+            powers = band_powers(cand.pipe, ds)
+        tr = [_training_windows(cand.pipe, it.rec, extra, cand.pipe.windows(it.rec, True, pw))
+              for it, extra, pw in zip(ds.items, copies, powers, strict=True)]
+        te = [cand.pipe.windows(it.rec, power=pw)
+              for it, pw in zip(ds.items, powers, strict=True)]
     short = [ds.rel(it) for it, w in zip(ds.items, te, strict=True) if not len(w)]
     if short:
         log.warning("%d recording(s) shorter than the first window give no answer: %s",
                     len(short), ", ".join(short[:5]))
     return CandidateWindows(tr, te, time.perf_counter() - t0)
+
+
+def band_powers(pipe: FeaturePipeline, ds: Dataset) -> list[np.ndarray]:
+    """Every recording's band power under ``pipe``'s features (the costly part of the
+    windows: the short-time spectrum), to share between candidates and between a
+    recording's training and answered windows."""
+    return [pipe.power(it.rec) for it in ds.items]
+
+
+def augmented_copies(ds: Dataset, augment: AugmentConfig, seed: int = 0,
+                     canonical: int = CANONICAL_RATE) -> list[list[Recording]]:
+    """The augmented copies of every recording of ``ds`` (reproducible from ``seed`` and
+    the recording's index), at the features' working rate."""
+    return [augmented(it.rec, augment, [seed, i], canonical) if augment.copies else []
+            for i, it in enumerate(ds.items)]
+
+
+def _training_windows(pipe: FeaturePipeline, rec: Recording, copies: list[Recording],
+                      w: Windows | None = None) -> Windows:
+    if w is None:
+        w = pipe.windows(rec, training=True)
+    if not copies or not len(w):
+        return w
+    ws = [w]
+    for r in copies:
+        a = pipe.windows(r, training=True)
+        # of a copy, only what the model answers at run time (the windows from the start;
+        # all of a spectrogram model's): the copies teach invariance at a third of the rows
+        keep = a.growing if a.growing is not None else np.ones(len(a), bool)
+        if keep.any():  # a copy too short for one window (sped up) adds nothing
+            ws.append(Windows(*(getattr(a, f)[keep] for f in
+                                ("inputs", "t_start", "t_end", "level_db", "clipped")),
+                              None if a.growing is None else a.growing[keep]))
+    return Windows(*(np.concatenate([getattr(a, f) for a in ws]) for f in
+                     ("inputs", "t_start", "t_end", "level_db", "clipped")),
+                   None if w.growing is None else np.concatenate([a.growing for a in ws]))
 
 
 def training_rows(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
@@ -281,10 +383,13 @@ def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
 
 
 def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
-                   folds: list[np.ndarray], classes: list[str], seed: int
+                   folds: list[np.ndarray], classes: list[str], seed: int,
+                   stop: Callable[[dict[int, Answers]], bool] | None = None
                    ) -> dict[int, Answers]:
     """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
-    is trained on the recordings of the other folds)."""
+    is trained on the recordings of the other folds). ``stop``: asked after each fold
+    but the last with the answers so far; True ends the cross-validation there (the
+    answers returned are then those of the folds run)."""
     pool = np.concatenate(folds)
     out: dict[int, Answers] = {}
     for f, te in enumerate(folds):
@@ -296,7 +401,33 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
         for i in te:
             if len(cw.test[i]):
                 out[int(i)] = answers_of(m, cw.test[i], f, nov)
+        if stop is not None and f < len(folds) - 1 and stop(out):
+            log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
+                     f + 1, len(folds))
+            break
     return out
+
+
+def best_case(part: dict[int, Answers], every: dict[int, Answers], labels: np.ndarray
+              ) -> dict[int, Answers]:
+    """``part``, completed with a right and certain answer for each recording of
+    ``every`` it lacks (at the same times): scored, the most a cross-validation that
+    ``part`` began can still reach."""
+    out = dict(part)
+    for i, a in every.items():
+        if i not in out:
+            sure = np.zeros_like(a.run)
+            sure[:, labels[i]] = 1.0
+            out[i] = Answers(sure, sure, a.t_end, a.fold)
+    return out
+
+
+def cnn_work(cw: CandidateWindows, n_fits: int, epochs: int = CNN_EPOCHS) -> int:
+    """Projected work of the CNN candidate's training in window-epochs: its training
+    windows of every recording x ``epochs`` x ``n_fits`` (the folds and the final model).
+    An upper bound (a fold trains on fewer recordings; early stopping usually ends sooner)
+    that depends on the data only, never on the machine."""
+    return sum(len(w) for w in cw.train) * epochs * n_fits
 
 
 # --- scores ---------------------------------------------------------------------------------

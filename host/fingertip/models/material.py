@@ -34,16 +34,22 @@ from pathlib import Path
 import numpy as np
 
 from .anytime import DECISION_TIMES
+from .augment import AugmentConfig
 from .candidates import (
     CANDIDATES,
+    CNN_EPOCHS,
+    CNN_WORK_LIMIT,
     Answers,
     Candidate,
     Fitted,
     accuracy_by_time,
     answers_of,
+    best_case,
+    band_powers,
     calibrated,
     candidate_windows,
     candidates,
+    cnn_work,
     choose_setup,
     cross_validate,
     decision_curve,
@@ -104,7 +110,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    seed: int = 0, rate_hint: float | None = None, max_hz: float | None = None,
                    epochs: int = 300, folds: int = 1, features: FeatureConfig | None = None,
                    kind: str = "material", plot: bool = True,
-                   models: tuple[str, ...] = CANDIDATES) -> TrainResult:
+                   models: tuple[str, ...] = CANDIDATES,
+                   augment: AugmentConfig | None = None,
+                   cnn_budget: float | None = None) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
@@ -114,8 +122,19 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     the exported model is then trained on every recording. ``folds`` 1: one split
     (``test_fraction`` held out); the choice and the calibration use a cross-validation of
     the training recordings only. ``models``: the candidates (see
-    :data:`~fingertip.models.candidates.CANDIDATES`).
+    :data:`~fingertip.models.candidates.CANDIDATES`). ``augment``: augmented copies of
+    each training recording (:mod:`.augment`; None: the defaults, one copy; only the
+    training windows of each fold are augmented, never the answers scored).
+    ``cnn_budget``: the CNN candidate is cross-validated only when its projected work
+    (:func:`~fingertip.models.candidates.cnn_work`, window-epochs) is at most this (inf: no
+    limit; None: :data:`~fingertip.models.candidates.CNN_WORK_LIMIT`); a count from the
+    data, so the same folder always gives the same candidates.
     """
+    augment = AugmentConfig() if augment is None else augment
+    cnn_budget = CNN_WORK_LIMIT if cnn_budget is None else cnn_budget
+    if not cnn_budget > 0:
+        raise ValueError(f"cnn_budget must be > 0 window-epochs (inf: no limit), not "
+                         f"{cnn_budget}")
     t_all = time.perf_counter()
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
     setup = choose_setup(ds, features, max_hz, window_s, step_s)
@@ -131,14 +150,35 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         inner = min(3, least)
         sel_folds = [train_idx[f] for f in stratified_folds(labels[train_idx], inner, seed)] \
             if inner >= 2 else []
+    n_fits = len(sel_folds) + 1
+    # no time cap on the CNN's fits: a cap would make its result depend on the machine's
+    # load; the work rule below bounds it instead
     cands = candidates(setup, models, hidden, epochs)
     results: dict[str, dict] = {}
+    skipped: dict[str, str] = {}
     oof: dict[str, dict[int, Answers]] = {}
     cws = {}
     t_cv = time.perf_counter()
-    for cand in cands:
+    powers: list[np.ndarray] | None = None
+    for cand in list(cands):
         t0 = time.perf_counter()
-        cw = cws[cand.name] = candidate_windows(cand, ds)
+        # the candidates on the adapted bands share one short-time spectrum per recording
+        # (the first of them pays for it in its features_s)
+        same = cand.pipe.cfg == setup.cfg
+        if same and powers is None:
+            powers = band_powers(cand.pipe, ds)
+        cw = cws[cand.name] = candidate_windows(cand, ds, powers=powers if same else None)
+        if cand.name == "cnn" and len(cands) > 1:
+            need = cnn_work(cw, n_fits)
+            if need > cnn_budget:
+                skipped["cnn"] = (f"projected work {need} window-epochs "
+                                  f"({sum(len(w) for w in cw.train)} training windows x "
+                                  f"{CNN_EPOCHS} epochs x {n_fits} fits) exceeds its "
+                                  f"budget of {cnn_budget:g}")
+                log.info("candidate cnn skipped: %s", skipped["cnn"])
+                cands.remove(cand)
+                del cws[cand.name]
+                continue
         ans = cross_validate(cand, cw, labels, sel_folds, ds.classes, seed) \
             if sel_folds else {}
         oof[cand.name] = ans
@@ -152,6 +192,11 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     t_cv = time.perf_counter() - t_cv
     chosen, why = _choose(results, cands)
     cand = next(c for c in cands if c.name == chosen)
+    t0 = time.perf_counter()
+    aug_report = _try_augmentation(cand, ds, augment, seed, labels, sel_folds, results, cws,
+                                   oof)
+    t_augment = time.perf_counter() - t0
+    t_cv += t_augment
     ans = oof[chosen]
     n_sel = len(sel_folds)
     temps = fold_temperatures(ans, labels, n_sel) if ans else []
@@ -217,7 +262,8 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    "longest_s": setup.longest_s, "step_s": setup.step_s,
                    "frames": cand.pipe.spec.frames, "min_frames": cand.pipe.spec.min_frames,
                    "stats": list(cand.pipe.spec.stats)},
-        "candidates": results, "choice": why,
+        "candidates": results, "candidates_skipped": skipped, "choice": why,
+        "augmentation": aug_report,
         "split": split, "seed": seed, "test_fraction": test_fraction if folds <= 1 else None,
         "evaluation": evaluation.to_dict(), "summary": summary,
         "accuracy_by_time": table, "decision_curve": curve,
@@ -233,6 +279,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                             "(out of fold, whole recording)"},
         "onnx_max_abs_diff_vs_float64": onnx_diff,
         "timing": {"features_s": round(sum(r["features_s"] for r in results.values()), 3),
+                   "augment_s": round(t_augment, 3),
                    "cross_validation_s": round(t_cv, 3), "train_s": round(t_train, 3),
                    "total_s": round(time.perf_counter() - t_all, 3),
                    "latency_model_ms": results[chosen]["cost"]["latency_model_ms"],
@@ -264,6 +311,60 @@ def _pooled(ans: dict[int, Answers], labels: np.ndarray) -> tuple[np.ndarray, np
 def _cooled(a: Answers, t: float) -> Answers:
     return Answers(apply_temperature(a.probs, t), apply_temperature(a.run, t), a.t_end, a.fold,
                    a.dist)
+
+
+def _try_augmentation(cand: Candidate, ds: Dataset, augment: AugmentConfig, seed: int,
+                      labels: np.ndarray, folds: list[np.ndarray], results: dict[str, dict],
+                      cws: dict, oof: dict) -> dict:
+    """Cross-validate the chosen candidate again with augmented training recordings
+    (:mod:`.augment`) and keep the augmentation unless it costs more than :data:`TIE` of
+    mean accuracy on the (never augmented) held-out recordings: robustness to other days
+    is taken when it is free on the user's own data, and the report says what it costs when
+    it is not. Updates ``cws`` and ``oof`` in place when adopted."""
+    out = {"settings": augment.to_dict(), "adopted": False,
+           "rule": f"adopted unless the cross-validated mean accuracy drops by more than "
+                   f"{100 * TIE:g} points"}
+    base = results[cand.name]["mean_accuracy"]
+    if not augment.copies or not folds or not math.isfinite(base):
+        out["why"] = "no augmentation asked" if not augment.copies else \
+            "too few recordings to cross-validate it"
+        return out
+    cw = candidate_windows(cand, ds, augment, seed, clean=cws[cand.name])
+    clean = oof[cand.name]
+    stopped = []
+
+    def lost(part: dict[int, Answers]) -> bool:
+        # even if every recording still to answer were right, the rule would reject it:
+        # the remaining folds cannot change the decision, so they are not run
+        if mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) \
+                < base - TIE:
+            stopped.append(len({a.fold for a in part.values()}))
+        return bool(stopped)
+
+    ans = cross_validate(cand, cw, labels, folds, ds.classes, seed, stop=lost)
+    done = stopped[0] if stopped else len(folds)
+    if stopped:
+        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+        out.update({"mean_accuracy_without": base, "mean_accuracy_with": None,
+                    "mean_accuracy_with_at_most": bound, "folds_run": done,
+                    "adopted": False})
+        out["why"] = (f"{cand.name} with augmentation: at most {100 * bound:.2f} % (after "
+                      f"{done} of {len(folds)} folds, the others counted right) against "
+                      f"{100 * base:.2f} % without: not adopted")
+        log.info("%s", out["why"])
+        return out
+    table = accuracy_by_time(ans, labels)
+    acc = mean_accuracy(table)
+    out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
+                "accuracy_by_time_with": table, "folds_run": done,
+                "adopted": bool(acc >= base - TIE)})
+    out["why"] = (f"{cand.name} with augmentation: {100 * acc:.2f} % against "
+                  f"{100 * base:.2f} % without: " + ("adopted" if out["adopted"] else
+                                                     "not adopted"))
+    log.info("%s", out["why"])
+    if out["adopted"]:
+        cws[cand.name], oof[cand.name] = cw, ans
+    return out
 
 
 def _choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:

@@ -133,6 +133,15 @@ DIMS = 48
 """Principal components of the standardised inputs kept for the distance."""
 
 
+def _rows(x: np.ndarray) -> np.ndarray:
+    """Inputs as rows: a spectrogram window (frames x bands) is summarised by each band's
+    mean and deviation over time (shifting a sound within the window must not make it
+    novel)."""
+    x = np.asarray(x, np.float64)
+    if x.ndim == 3:
+        return np.concatenate([x.mean(axis=1), x.std(axis=1)], axis=1)
+    return x
+
 @dataclass
 class Novelty:
     """Squared Mahalanobis distance (per dimension) from an input to the nearest class,
@@ -155,7 +164,7 @@ class Novelty:
     @classmethod
     def fit(cls, x: np.ndarray, y: np.ndarray, k: int,
             weights: np.ndarray | None = None) -> Novelty:
-        x = np.asarray(x, np.float64)
+        x = _rows(x)
         w = np.ones(len(x)) if weights is None else np.asarray(weights, np.float64)
         mean = np.average(x, axis=0, weights=w)
         sd = np.sqrt(np.average((x - mean) ** 2, axis=0, weights=w))
@@ -182,7 +191,7 @@ class Novelty:
 
     def distance(self, x: np.ndarray) -> np.ndarray:
         """(n,) squared distance per dimension of each row of ``x`` to the nearest class."""
-        z = (np.asarray(x, np.float64) - self.mean) @ self.proj
+        z = (_rows(x) - self.mean) @ self.proj
         d = np.stack([(((z - mu) @ wh) ** 2).sum(axis=1)
                       for mu, wh in zip(self.centres, self.whiten, strict=True)], axis=1)
         return d.min(axis=1) / z.shape[1]

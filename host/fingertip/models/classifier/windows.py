@@ -84,12 +84,15 @@ class FeaturePipeline:
         """Seconds of audio one window needs."""
         return (self.spec.frames - 1) * self.cfg.hop_s + self.cfg.win_s
 
-    def windows(self, rec: Recording, training: bool = False) -> Windows:
+    def windows(self, rec: Recording, training: bool = False,
+                power: np.ndarray | None = None) -> Windows:
         """The windows of ``rec``; ``training``: for a growing model, the windows it is
         trained on (:func:`~fingertip.models.anytime.training_bounds`) instead of the
-        ones it answers on."""
+        ones it answers on. ``power``: ``rec``'s band power under this pipeline's
+        features, computed already (:meth:`power`; a trainer shares it between uses)."""
         cfg, sp = self.cfg, self.spec
-        power = self.spectro(rec.samples, rec.rate, rec.source or "the recording")
+        if power is None:
+            power = self.power(rec)
         if sp.input == "growing":
             return self._growing(rec, power, training)
         starts = window_starts(len(power), sp.frames, sp.step_s, cfg.hop_s)
@@ -103,6 +106,10 @@ class FeaturePipeline:
         t1 = t0 + (frames - 1) * cfg.hop_s + cfg.win_s
         lv, cl = _window_stats(rec, t0, t1)
         return Windows(inputs, t0, t1, lv, cl)
+
+    def power(self, rec: Recording) -> np.ndarray:
+        """(frames, bands) band power of ``rec`` under this pipeline's features."""
+        return self.spectro(rec.samples, rec.rate, rec.source or "the recording")
 
     def _growing(self, rec: Recording, power: np.ndarray, training: bool) -> Windows:
         from ..anytime import growing_bounds, span_features, training_bounds
