@@ -115,3 +115,16 @@ def test_cli_hand_checks_each_fingertip(tmp_path):
     assert [f["ok"] for f in d["fingertips"]] == [True, False]
     assert d["fingertips"][1]["faults"] == ["missing-chip"]
     assert r.stdout.count("== /dev/") == 2
+
+
+def test_cli_real_port_without_a_paired_sound_card_skips_the_piezo(tmp_path):
+    """A port that is not a USB serial port here (a pty) pairs with no sound card: the
+    check runs without the piezo and says why, naming check's own option for the card."""
+    unit = VirtualUnit(5)
+    with PtyDevice(unit.firmware, speed=SPEED) as dev:
+        r = run_cli("check", "--port", dev.port, "--no-prompt", "--report", "r.json", "-q",
+                    cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    warn = [line for line in r.stderr.splitlines() if "piezo not checked" in line]
+    assert len(warn) == 1 and "not a USB serial port here" in warn[0], r.stderr
+    assert warn[0].endswith("give the sound card with --audio-device"), warn[0]

@@ -59,5 +59,11 @@ def test_a_port_path_or_its_link_finds_its_paired_card(tmp_path):
     assert sound_card_for_port(str(tmp_path / "ttyACM0"), ports=ports, sysfs_root=root) == "hw:1,0"
     with pytest.raises(PairingError, match="not a USB serial port here"):
         sound_card_for_port("/dev/ttyUSB7", ports=ports, sysfs_root=root)
+    # check's option for the card is --audio-device, publish's --audio: each is named
+    with pytest.raises(PairingError, match="with --audio-device$"):
+        sound_card_for_port("/dev/ttyUSB7", ports=ports, sysfs_root=root,
+                            option="--audio-device")
+    with pytest.raises(PairingError, match="with --audio$"):
+        sound_card_for_port("/dev/ttyUSB7", ports=ports, sysfs_root=root)
     with pytest.raises(LookupError, match="no USB sound card behind hub"):
         sound_card_for_port("/dev/ttyACM9", ports=ports, sysfs_root=root)

@@ -22,32 +22,6 @@ def _rdt_address(text: str) -> tuple[str, int]:
         raise argparse.ArgumentTypeError(f"{text!r}: give HOST or HOST:PORT") from None
 
 
-@contextlib.contextmanager
-def _virtual_rig(args: argparse.Namespace):
-    """A virtual unit behind a pty, random presses, and an RDT reference simulator on
-    127.0.0.1 fed by the unit's true forces (its own delay, noise and packet loss)."""
-    import numpy as np
-
-    from ..sim.bringup import VirtualUnit
-    from ..sim.pty_device import PtyDevice
-    from ..sim.rdt_server import RdtServer
-    from ..sim.reference_run import random_presses
-
-    unit = VirtualUnit(args.seed)
-    with PtyDevice(unit.firmware) as dev:
-        def force_at(host_t: float) -> np.ndarray:
-            f = unit.scene.forces(np.array([dev.device_time_s(host_t)]))
-            return np.array([f.xy[0, 0], f.xy[0, 1], f.z[0]])
-
-        def begin() -> None:  # presses start after the tare, from the device's now
-            random_presses(unit.scene, unit.now_s + args.duration,
-                           np.random.default_rng(args.seed), start_s=unit.now_s + 1.0)
-
-        with RdtServer(force_at, delay_s=args.sim_delay_ms / 1e3, loss=args.sim_loss / 100,
-                       seed=args.seed) as server:
-            yield dev.port, f"127.0.0.1:{server.port}", begin
-
-
 def _cmd_record(args: argparse.Namespace) -> int:
     """Record a calibration run with a reference force sensor, join the two by time (the
     clock offset is estimated from the data, with its uncertainty), drop unsettled samples
@@ -58,29 +32,32 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..device import Fingertip, FingertipError
     from ..network import ExtraMissing  # light: the transports import their extras lazily
     from ..protocol import ProtocolVersionError
-    from ..reference import ReferenceError, load_reference_csv
+    from ..reference import ReferenceError
     from ..reference.rdt import RdtClient
     from ..transport import DeviceNotFound, TransportError
     from ..models.align import AlignmentError
-    from ..models.calib_record import align_and_join, fit_joined, load_fingertip_csv, record_session
+    from ..models.calib_session import chosen_text, fit_run, join_csvs, record_and_join
     from ..models.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
                                                     flush=True))
-    sources: tuple[str, ...]
     try:
         with contextlib.ExitStack() as stack:
             if args.fingertip_csv:
                 if not args.reference_csv:
                     log.error("--fingertip-csv needs --reference-csv")
                     return 2
-                rec = load_fingertip_csv(args.fingertip_csv, args.time_column)
-                ref = load_reference_csv(args.reference_csv)
-                serial, sources = args.device_serial or "", (str(args.reference_csv),)
+                run = join_csvs(args.fingertip_csv, args.reference_csv,
+                                time_column=args.time_column, serial=args.device_serial or "",
+                                max_lag_s=args.max_offset)
             else:
                 begin = None
                 if args.virtual:
-                    port, addr, begin = stack.enter_context(_virtual_rig(args))
+                    from ..sim.reference_run import virtual_rdt_rig
+
+                    port, addr, begin = stack.enter_context(virtual_rdt_rig(
+                        args.seed, args.duration, delay_s=args.sim_delay_ms / 1e3,
+                        loss=args.sim_loss / 100))
                     args.rdt = args.rdt or _rdt_address(addr)
                     ft = stack.enter_context(Fingertip(port))
                     serial = f"virtual-{args.seed}"
@@ -88,56 +65,34 @@ def _cmd_record(args: argparse.Namespace) -> int:
                     ft = stack.enter_context(Fingertip(args.port) if args.port else
                                              Fingertip(serial_number=args.serial))
                     serial = args.device_serial or ft.serial_number or ""
-                if args.rdt or args.ros_topic:
-                    src = _network_reference(args) if args.ros_topic else \
-                        RdtClient(args.rdt[0], args.rdt[1],
-                                  counts_per_force=args.counts_per_force,
-                                  counts_per_torque=args.counts_per_force)
-                    rec, ref = record_session(ft, src, args.duration, before=begin,
-                                              progress=say)
-                    sources = (src.name,)
-                    lost = ref.counters.get("lost", 0)
-                    if say:
-                        say(f"reference: {len(ref)} samples, {lost} lost")
-                else:
+                if not (args.rdt or args.ros_topic):
                     log.error("give a reference: --rdt HOST[:PORT], --ros-topic TOPIC or "
                               "--reference-csv FILE "
                               "(with --fingertip-csv)")
                     return 2
-            if args.reference_csv and not args.fingertip_csv:
-                ref = load_reference_csv(args.reference_csv)
-                sources = (str(args.reference_csv),)
-            joined = align_and_join(rec, ref, max_lag_s=args.max_offset)
+                src = _network_reference(args) if args.ros_topic else \
+                    RdtClient(args.rdt[0], args.rdt[1], counts_per_force=args.counts_per_force,
+                              counts_per_torque=args.counts_per_force)
+                run = record_and_join(ft, src, args.duration, serial=serial,
+                                      reference_csv=args.reference_csv,
+                                      max_lag_s=args.max_offset, before=begin, progress=say)
     except (ReferenceError, AlignmentError, ExtraMissing) as e:
         log.error("%s", e)
         return 2
     except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
         log.error("%s", e)
         return 2
-    al = joined.alignment
-    print(f"clock offset: reference = fingertip {al.offset_s * 1e3:+.1f} ms "
-          f"+- {al.uncertainty_s * 1e3:.1f} ms (R2 {al.r2:.4f}); joined "
-          f"{len(joined.times_s)} rows, dropped " +
-          ", ".join(f"{v} {k}" for k, v in joined.dropped.items()))
+    print(run.alignment_text())
     try:
-        report = fit_joined(joined, args.out, gain=rec.gain, unit=serial,
-                            device_serial=serial, sources=sources, models=args.models,
-                            progress=say)
+        report = fit_run(run, args.out, models=args.models, progress=say)
     except CalibrationError as e:
         log.error("cannot calibrate from the joined data [%s]: %s", e.code, e)
         return 2
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    return _done(report, args.out, "", ", ".join(
-        v for k, v in report.files.items() if k != "chosen") + ", joined.csv, alignment.json")
-
-
-def _done(report, out, how: str, files: str) -> int:
-    c = report.chosen_result
-    print(report.table())
-    print(f"\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N{how}); wrote {out}: "
-          f"force.onnx, {files}")
+    print(chosen_text(report, args.out, ", ".join(
+        v for k, v in report.files.items() if k != "chosen") + ", joined.csv, alignment.json"))
     return 0
 
 
@@ -193,8 +148,11 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    return _done(report, args.out, " over whole weight steps", ", ".join(
-        v for k, v in report.files.items() if k != "chosen"))
+    from ..models.calib_session import chosen_text
+
+    print(chosen_text(report, args.out, ", ".join(
+        v for k, v in report.files.items() if k != "chosen"), " over whole weight steps"))
+    return 0
 
 
 def _network_reference(args: argparse.Namespace):

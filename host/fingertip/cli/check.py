@@ -33,17 +33,13 @@ def _real_audio(args: argparse.Namespace, probe):
     if args.no_audio:
         return None
     if args.audio_device is None:
-        from ..device.pairing import PairingError, alsa_device_name, sound_card_for
-        from ..transport import list_ports
+        from ..device.pairing import PairingError, sound_card_for_port
 
-        port = next((p for p in list_ports(include_non_usb=True)
-                     if p.device == probe.ft.port), None)
         try:
-            if port is None:
-                raise PairingError(f"{probe.ft.port} is not a USB port")
-            device = alsa_device_name(sound_card_for(port))
-        except PairingError as e:
-            log.warning("piezo not checked: %s (give --audio-device)", e)
+            device = sound_card_for_port(probe.ft.port, option="--audio-device")
+        except PairingError as e:  # the port's own message already names the option
+            log.warning("piezo not checked: %s%s", e, "" if "--audio-device" in str(e)
+                        else " (give --audio-device)")
             return None
     else:
         device = args.audio_device

@@ -11,11 +11,9 @@ import argparse
 import importlib
 import json
 import logging
-import signal
 import sys
-import threading
-import time
 from collections.abc import Sequence
+from functools import partial
 from pathlib import Path
 
 from .argtypes import dispatch, number
@@ -56,12 +54,20 @@ def load_force_model(spec: str):
 def _cmd_record(args: argparse.Namespace) -> int:
     """Record a fingertip (frames, forces, audio, events) into an MCAP file of ROS 2
     messages, until --duration passes or Ctrl-C."""
-    from ..audio import AudioError, FileSource, SoundDeviceSource
-    from ..device import Fingertip, FingertipError
+    from ..audio import AudioError
+    from ..device import FingertipError
+    from ..hand_args import hand_audio_from_args
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from ..record.recorder import Recorder, RecorderError
+    from ..record.recorder import RecorderError
     from ..record.schemas import check_name
+    from ..record.session import (
+        RecordSettings,
+        SessionError,
+        check_output,
+        open_audio,
+        record_fingertip,
+    )
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
@@ -75,158 +81,70 @@ def _cmd_record(args: argparse.Namespace) -> int:
         # An ONNX model is read here, before any device is opened, so a bad file is
         # refused at once; it is checked against the fingertip once that is open.
         force_model = load_force_model(args.force_model) if args.force_model else None
-    except ValueError as e:
-        log.error("%s", e)
-        return 2
-    if out.is_dir():
-        log.error("%s is a directory: give a file name such as %s", out, out / "run.mcap")
-        return 2
-    if out.exists() and out.is_file() and not args.force:
-        log.error("%s already exists (choose another name, or add --force to replace it)",
-                  out)
-        return 2
-    try:
+        check_output(out, args.force)
         spec = hand_spec_from_args(args)
         if spec is not None and (args.audio is not None or args.audio_file):
             raise ValueError("a hand's microphones are given with --hand-audio")
-    except ValueError as e:
+        audio = (hand_audio_from_args(args, spec.fingers, sample_rate=args.audio_rate,
+                                      dtype=args.audio_dtype) if spec is not None else
+                 open_audio(args.audio, args.audio_file, rate=args.audio_rate,
+                            channels=args.audio_channels, dtype=args.audio_dtype))
+    except (SessionError, AudioError, ValueError) as e:
         log.error("%s", e)
         return 2
-    if spec is not None:
-        from ..record.hand_record import record_hand
-
-        return record_hand(args, spec, force_model, out)
-
-    audio = None
+    settings = RecordSettings(out, name=args.name, duration=args.duration, tare=args.tare,
+                              flush_interval=args.flush_interval, flush_kb=args.flush_kb,
+                              compression=args.compression, overwrite=args.force,
+                              fsync=args.fsync)
+    say = partial(print, file=sys.stderr, flush=True)
+    live = spec is None and sys.stderr.isatty()
+    errors = (SessionError, RecorderError, AudioError, TransportError, DeviceNotFound,
+              FingertipError, ProtocolVersionError)
     try:
-        if args.audio is not None:
-            dev = int(args.audio) if args.audio.isdigit() else args.audio
-            audio = SoundDeviceSource(dev, args.audio_rate, channels=args.audio_channels,
-                                      dtype=args.audio_dtype)
-        elif args.audio_file:
-            audio = FileSource(args.audio_file, realtime=True)
-    except (AudioError, ValueError) as e:
+        if spec is not None:
+            from ..record.hand_record import record_hand
+
+            res = record_hand(settings, spec, audio, force_model, say=say)
+        else:
+            res = record_fingertip(
+                settings, port=args.port, serial=args.serial, audio=audio,
+                force_model=force_model, model_for=_model_check(args.force_model) if onnx
+                else None, say=say,
+                status=_overwrite_line if live else None)
+    except errors as e:
         log.error("%s", e)
         return 2
-
-    try:
-        ft = (Fingertip(serial_number=args.serial, name=args.name) if args.serial
-              else Fingertip(args.port, name=args.name)).open()
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
+    except ValueError as e:  # a hand split naming channels its device does not have
+        if spec is None:
+            raise
         log.error("%s", e)
         return 2
-    if onnx:  # checked against this fingertip (channels, units, serial) before recording
-        from ..models.force_load import ModelMismatch, force_model_for
-
-        try:
-            force_model = force_model_for(ft, args.force_model)
-        except (ModelMismatch, FileNotFoundError, ValueError) as e:
-            ft.close()
-            log.error("--force-model refused: %s", e)
-            return 2
-    rec = None
-    try:
-        offsets = None
-        if args.tare:
-            offsets = ft.tare(samples=args.tare)
-        rec = Recorder(out, flush_interval=args.flush_interval,
-                       flush_bytes=args.flush_kb * 1024, compression=args.compression,
-                       overwrite=args.force, fsync=args.fsync)
-        rec.start()
-        name = rec.attach(ft, args.name, force_model=force_model)
-        if offsets is not None:
-            rec.write_event(name, "tare", float(args.tare), detail=json.dumps(list(offsets)))
-        if audio is not None:
-            audio.start()
-            rec.record_audio(audio, name)
-        ft.start()
-        rec.write_event(name, "start")
-        return _record_loop(args, ft, rec, audio, name, out)
-    except RecorderError as e:
-        log.error("%s", e)
-        return 2
-    except AudioError as e:
-        log.error("%s", e)
-        return 2
-    except (TransportError, FingertipError) as e:
-        log.error("%s", e)
-        return 2
-    finally:
-        if audio is not None:
-            audio.stop()
-        if rec is not None:
-            rec.close()
-        ft.close()
-
-
-def _record_loop(args, ft, rec, audio, name: str, out: Path) -> int:
-    from ..device import FingertipError
-
-    stop = threading.Event()
-    old = None
-    if threading.current_thread() is threading.main_thread():
-        old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    live = sys.stderr.isatty()
-    t0 = time.monotonic()
-    t_end = t0 + args.duration if args.duration else None
-    print(f"recording {name} from {ft.port} to {out}"
-          + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
-          file=sys.stderr, flush=True)
-    reconnects = ft.stats.reconnects
-    last_print = 0.0
-    try:
-        while not stop.is_set():
-            now = time.monotonic()
-            if t_end is not None and now >= t_end:
-                break
-            if rec.failed:
-                break
-            st = ft.stats
-            if st.reconnects != reconnects:
-                reconnects = st.reconnects
-                rec.write_event(name, "reconnect", float(reconnects))
-            if live and now - last_print >= 0.25:
-                last_print = now
-                s = rec.stats
-                frames = s.accepted.get(f"/fingertip/{name}/raw", 0)
-                audio_s = (s.audio_frames.get(name, 0) / audio.sample_rate) if audio else 0.0
-                print(f"\r{now - t0:7.1f} s  {frames:7d} frames"
-                      + (f"  audio {audio_s:6.1f} s" if audio else "")
-                      + f"  {s.bytes_written / 1e6:7.2f} MB  dropped {s.dropped_total}"
-                      + f"  [{ft.status}]   ", end="", file=sys.stderr, flush=True)
-            stop.wait(0.1 if t_end is None else max(0.0, min(0.1, t_end - now)))
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if old is not None:
-            signal.signal(signal.SIGTERM, old)
-        if live:
-            print(file=sys.stderr)
-    elapsed = time.monotonic() - t0
-    try:
-        ft.stop()
-    except FingertipError:
-        pass
-    rec.write_event(name, "stop")
-    if audio is not None:
-        audio.stop()
-    s = rec.close()
-    frames = s.written.get(f"/fingertip/{name}/raw", 0)
-    forces = s.written.get(f"/fingertip/{name}/wrench", 0)
-    chunks = s.written.get(f"/fingertip/{name}/audio", 0)
-    events = s.written.get(f"/fingertip/{name}/events", 0)
-    audio_s = (s.audio_frames.get(name, 0) / audio.sample_rate) if audio else 0.0
-    fst = ft.stats
-    print(f"recorded {elapsed:.1f} s to {out}: {frames} frames, {forces} forces, "
-          f"{audio_s:.1f} s of audio in {chunks} chunks, {events} events; dropped "
-          f"{s.dropped_total}; {s.bytes_written / 1e6:.2f} MB; device: lost "
-          f"{fst.frames_lost}, CRC errors {fst.crc_errors}, reconnects {fst.reconnects}",
-          file=sys.stderr)
-    if rec.error is not None:
-        log.error("%s; what was written before is readable, and `fingertip repair %s` "
-                  "makes a complete copy of it", rec.error, out)
+    if live:
+        print(file=sys.stderr)
+    print(res.text(), file=sys.stderr)
+    if res.error is not None:
+        log.error("%s", res.error)
         return 1
     return 0
+
+
+def _overwrite_line(text: str) -> None:
+    """Progress on a terminal: each line replaces the one before."""
+    print(f"\r{text}", end="", file=sys.stderr, flush=True)
+
+
+def _model_check(path: str):
+    """``--force-model FILE.onnx`` checked against the opened fingertip (channels, units,
+    serial): the model, or a one-line refusal."""
+    def model_for(ft):
+        from ..models.force_load import ModelMismatch, force_model_for
+        from ..record.session import SessionError
+
+        try:
+            return force_model_for(ft, path)
+        except (ModelMismatch, FileNotFoundError, ValueError) as e:
+            raise SessionError(f"--force-model refused: {e}") from e
+    return model_for
 
 
 # --- replay -------------------------------------------------------------------------------

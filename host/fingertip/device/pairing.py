@@ -57,21 +57,25 @@ def alsa_device_name(card: int) -> str:
     return f"hw:{int(card)},0"
 
 
-def port_info(port: str, ports: list[PortInfo] | None = None) -> PortInfo:
-    """The USB identity of serial port ``port`` (a path or a symlink to one)."""
+def port_info(port: str, ports: list[PortInfo] | None = None, *,
+              option: str = "--audio") -> PortInfo:
+    """The USB identity of serial port ``port`` (a path or a symlink to one); ``option``:
+    the caller's option that names a sound card instead, for the error message."""
     listed = {p.device: p for p in (list_ports(include_non_usb=True) if ports is None else ports)}
     info = listed.get(port) or next((p for p in listed.values()
                                      if os.path.realpath(p.device) == os.path.realpath(port)),
                                     None)
     if info is None:
         raise PairingError(f"{port}: not a USB serial port here (ports: "
-                           f"{', '.join(listed) or 'none'}); give the sound card with --audio")
+                           f"{', '.join(listed) or 'none'}); give the sound card with {option}")
     return info
 
 
 def sound_card_for_port(port: str, *, ports: list[PortInfo] | None = None,
-                        sysfs_root: str | os.PathLike = "/sys") -> str:
+                        sysfs_root: str | os.PathLike = "/sys", option: str = "--audio") -> str:
     """The capture device name (``hw:N,0``) of the sound card paired with the fingertip on
     serial port ``port`` (``ports``: the serial ports, listed here when None); a
-    :class:`PairingError` (a LookupError) says why there is none."""
-    return alsa_device_name(sound_card_for(port_info(port, ports), sysfs_root=sysfs_root))
+    :class:`PairingError` (a LookupError) says why there is none, naming ``option`` as the
+    caller's way to give the card instead."""
+    return alsa_device_name(sound_card_for(port_info(port, ports, option=option),
+                                           sysfs_root=sysfs_root))

@@ -1,42 +1,60 @@
 """``fingertip record --hand ... | --port P --hand-split 4x4``: every finger of a hand on its
-own topics (``/fingertip/<finger>/raw``, ``wrench``, ``audio``, ``events``) of one MCAP file."""
+own topics (``/fingertip/<finger>/raw``, ``wrench``, ``audio``, ``events``) of one MCAP file,
+with the settings and the loop of :mod:`.session`."""
 from __future__ import annotations
 
-import argparse
+import contextlib
 import logging
-import signal
-import sys
-import threading
-import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from ..hand_args import HandSpec, hand_audio_from_args
+from ..hand_args import HandSpec
+from .session import RecordSettings, Say, run_until
 
-log = logging.getLogger("fingertip")
+log = logging.getLogger(__name__)
 
 
-def record_hand(args: argparse.Namespace, spec: HandSpec, force_model, out: Path) -> int:
-    from ..audio import AudioError
+@dataclass(frozen=True)
+class HandSummary:
+    """What a hand's session wrote, per finger; :attr:`error` is set when writing failed
+    part-way."""
+
+    output: Path
+    elapsed_s: float
+    per_finger: dict[str, dict[str, int]]   # finger -> raw, wrench, audio, events, audio_frames
+    dropped: int
+    dropped_by_topic: dict[str, int]
+    megabytes: float
+    overruns: int
+    error: str | None = None
+
+    def text(self) -> str:
+        lines = [f"{f}: {c['raw']} frames, {c['wrench']} forces, {c['audio_frames']} audio "
+                 f"frames in {c['audio']} chunks, {c['events']} events"
+                 for f, c in self.per_finger.items()]
+        drops = ", ".join(f"{k}: {v}" for k, v in sorted(self.dropped_by_topic.items()))
+        lines.append(f"recorded {self.elapsed_s:.1f} s to {self.output}: dropped {self.dropped}"
+                     + (f" ({drops})" if drops else "") + "; "
+                     f"{self.megabytes:.2f} MB; hand queue overruns {self.overruns}")
+        return "\n".join(lines)
+
+
+def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_model: Any = None,
+                say: Say | None = None) -> HandSummary:
+    """Record the hand ``spec`` describes and its microphones (``audio``: (source, finger
+    names) pairs, not started) until the settings' duration, SIGTERM or Ctrl-C. Raises the
+    devices', recorder's and audio errors (and ValueError for a split that names channels
+    the device does not have); everything opened is closed whatever happens."""
     from ..device import FingertipError
-    from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
-    from .recorder import Recorder, RecorderError
 
-    try:
-        audio = hand_audio_from_args(args, spec.fingers, sample_rate=args.audio_rate,
-                                     dtype=args.audio_dtype)
-    except (AudioError, ValueError) as e:
-        log.error("%s", e)
-        return 2
     hand = spec.build()
     rec = None
     try:
         hand.open()  # refuses a split that names channels the device does not have
-        if args.tare:
-            hand.tare(samples=args.tare)
-        rec = Recorder(out, flush_interval=args.flush_interval,
-                       flush_bytes=args.flush_kb * 1024, compression=args.compression,
-                       overwrite=args.force, fsync=args.fsync)
+        if settings.tare:
+            hand.tare(samples=settings.tare)
+        rec = settings.recorder()
         rec.start()
         for finger in hand.fingers:
             dev = hand.device(finger)
@@ -53,65 +71,28 @@ def record_hand(args: argparse.Namespace, spec: HandSpec, force_model, out: Path
         hand.start()
         for finger in hand.fingers:
             rec.write_event(finger, "start")
-        return _loop(args, hand, rec, [src for src, _ in audio], out)
-    except (RecorderError, AudioError, TransportError, FingertipError, DeviceNotFound,
-            ProtocolVersionError, ValueError) as e:
-        log.error("%s", e)
-        return 2
+        if say is not None:
+            say(settings.announce(f"hand ({', '.join(hand.fingers)})"))
+        elapsed = run_until(settings.duration, rec)
+        with contextlib.suppress(FingertipError):
+            hand.stop()
+        hand.remove_callback(rec.write_frame)
+        for finger in hand.fingers:
+            rec.write_event(finger, "stop")
+        for source, _ in audio:   # before the recorder closes: what they captured is recorded
+            source.stop()
+        s = rec.close()
+        per = {f: {k: s.written.get(f"/fingertip/{f}/{k}", 0)
+                   for k in ("raw", "wrench", "audio", "events")} for f in hand.fingers}
+        for f, c in per.items():
+            c["audio_frames"] = s.audio_frames.get(f, 0)
+        return HandSummary(output=settings.output, elapsed_s=elapsed, per_finger=per,
+                           dropped=s.dropped_total, dropped_by_topic=dict(s.dropped),
+                           megabytes=s.bytes_written / 1e6, overruns=hand.overruns,
+                           error=None if rec.error is None else str(rec.error))
     finally:
         for source, _ in audio:
             source.stop()
         if rec is not None:
             rec.close()
         hand.close()
-
-
-def _loop(args, hand, rec, sources, out: Path) -> int:
-    from ..device import FingertipError
-
-    stop = threading.Event()
-    old = None
-    if threading.current_thread() is threading.main_thread():
-        old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    t0 = time.monotonic()
-    t_end = t0 + args.duration if args.duration else None
-    print(f"recording hand ({', '.join(hand.fingers)}) to {out}"
-          + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
-          file=sys.stderr, flush=True)
-    try:
-        while not stop.is_set() and not rec.failed:
-            now = time.monotonic()
-            if t_end is not None and now >= t_end:
-                break
-            stop.wait(0.1 if t_end is None else max(0.0, min(0.1, t_end - now)))
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if old is not None:
-            signal.signal(signal.SIGTERM, old)
-    elapsed = time.monotonic() - t0
-    try:
-        hand.stop()
-    except FingertipError:
-        pass
-    hand.remove_callback(rec.write_frame)
-    for finger in hand.fingers:
-        rec.write_event(finger, "stop")
-    for source in sources:   # before the recorder closes: what they captured is recorded
-        source.stop()
-    s = rec.close()
-    per = {f: {k: s.written.get(f"/fingertip/{f}/{k}", 0)
-               for k in ("raw", "wrench", "audio", "events")} for f in hand.fingers}
-    for f, c in per.items():
-        audio_s = s.audio_frames.get(f, 0)
-        print(f"{f}: {c['raw']} frames, {c['wrench']} forces, {audio_s} audio frames in "
-              f"{c['audio']} chunks, {c['events']} events", file=sys.stderr)
-    drops = ", ".join(f"{k}: {v}" for k, v in sorted(s.dropped.items()))
-    print(f"recorded {elapsed:.1f} s to {out}: dropped {s.dropped_total}"
-          + (f" ({drops})" if drops else "") + "; "
-          f"{s.bytes_written / 1e6:.2f} MB; hand queue overruns {hand.overruns}",
-          file=sys.stderr)
-    if rec.error is not None:
-        log.error("%s", rec.error)
-        return 1
-    return 0

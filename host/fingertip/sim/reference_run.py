@@ -5,12 +5,16 @@ benchmarks of the join without real time; :class:`~.rdt_server.RdtServer` does t
 UDP in real time."""
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from .bringup import GuidedScene
+from .bringup import GuidedScene, VirtualUnit
 from .physics import VirtualStrainSensor
+from .pty_device import PtyDevice
+from .rdt_server import RdtServer
 
 
 @dataclass
@@ -67,3 +71,24 @@ def simulate_reference_run(seed: int = 0, duration_s: float = 120.0, *, delay_s:
 
     t_ref = smooth_arrivals(np.flatnonzero(keep).astype(float), arrival)
     return ReferenceRun(t_ft, counts, true, t_ref, f_ref, delay_s, scene)
+
+
+@contextlib.contextmanager
+def virtual_rdt_rig(seed: int, duration_s: float, *, delay_s: float = 0.037,
+                    loss: float = 0.01) -> Iterator[tuple[str, str, Callable[[], None]]]:
+    """A virtual unit behind a pty, random presses, and an RDT reference simulator on
+    127.0.0.1 fed by the unit's true forces (its own delay, noise and packet loss), in real
+    time: yields the pty's port, the simulator's ``HOST:PORT`` and ``begin()``, which
+    starts the presses (call it after the tare: nothing may touch the unit then)."""
+    unit = VirtualUnit(seed)
+    with PtyDevice(unit.firmware) as dev:
+        def force_at(host_t: float) -> np.ndarray:
+            f = unit.scene.forces(np.array([dev.device_time_s(host_t)]))
+            return np.array([f.xy[0, 0], f.xy[0, 1], f.z[0]])
+
+        def begin() -> None:  # presses start after the tare, from the device's now
+            random_presses(unit.scene, unit.now_s + duration_s, np.random.default_rng(seed),
+                           start_s=unit.now_s + 1.0)
+
+        with RdtServer(force_at, delay_s=delay_s, loss=loss, seed=seed) as server:
+            yield dev.port, f"127.0.0.1:{server.port}", begin
