@@ -38,7 +38,7 @@ PYTEST_ARGS ?=
 help:
 	@sed -n '2,10p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
-	@echo "  make drumkits     fetch the pinned hydrogen-drumkits (GPL-2+) into build/ for make bench"
+	@echo "  make drumkits     fetch the pinned hydrogen-drumkits (GPL kits) into build/ for make bench"
 	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
@@ -143,7 +143,7 @@ bench: setup hostlib drumkits
 	$(MAKE) --no-print-directory -C firmware bauds
 	$(VPY) tests/bench/run.py
 
-# Real hits for the vibration bench's public-set figures: Debian's hydrogen-drumkits (GPL-2+),
+# Real hits for the vibration bench's public-set figures: Debian's hydrogen-drumkits (GPL kits),
 # pinned, downloaded and unpacked into build/drumkits (not installed, never shipped). Only
 # `bench` needs it, never `test`; when it cannot be fetched it warns in one line and the bench
 # skips those figures. FINGERTIP_DRUMKITS=FOLDER makes the bench read another copy.

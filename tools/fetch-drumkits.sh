@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Fetch Debian's hydrogen-drumkits (GPL-2+) into a folder of this checkout, for the vibration
-# bench's figures on real recordings (tests/bench/public_sets.py). Evaluation only: nothing
+# Fetch Debian's hydrogen-drumkits into a folder of this checkout, for the vibration bench's
+# figures on real recordings (tests/bench/public_sets.py). Its kits are GPL-2, GPL-2+ or
+# CC-licensed, kit by kit (docs/classifiers.md names those used). Evaluation only: nothing
 # from it is shipped, committed or used to choose a default, and `make test` never needs it.
 #
 # Usage: tools/fetch-drumkits.sh [DEST]   (default build/drumkits; the kits end up under
@@ -32,7 +33,7 @@ tmp=$(mktemp -d "$DEST.part.XXXXXX") || warn "cannot create a folder beside $DES
 trap 'rm -rf "$tmp"' EXIT
 chmod 755 "$tmp"  # apt's _apt user writes the download here when run as root
 
-echo "fetching hydrogen-drumkits $VERSION (143 MB, GPL-2+, evaluation only) into $DEST"
+echo "fetching hydrogen-drumkits $VERSION (143 MB, GPL kits, evaluation only) into $DEST"
 if ! (cd "$tmp" && apt-get download -q "hydrogen-drumkits=$VERSION") >"$tmp/log" 2>&1; then
   warn "$(grep -m1 '^E:' "$tmp/log" || tail -n1 "$tmp/log")"
 fi

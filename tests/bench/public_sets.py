@@ -1,7 +1,8 @@
 """Class folders of real recordings that a Debian package ships: knocks on objects and
 drum hits, recorded at 44.1 kHz by other people with other microphones.
 
-Debian's ``hydrogen-drumkits`` (GPL-2+, the Hydrogen drum machine's sample kits) installs
+Debian's ``hydrogen-drumkits`` (the Hydrogen drum machine's sample kits, GPL-2, GPL-2+ or
+CC-BY-SA-3.0 by kit: docs/classifiers.md lists them) installs
 real, dry recordings of single hits under ``/usr/share/hydrogen/data/drumkits``. Two tasks
 fit the fingertip's knock classifier:
 
@@ -13,10 +14,10 @@ fit the fingertip's knock classifier:
   ColomboAcousticDrumkit, Millo_MultiLayered3), unbalanced classes.
 
 Nothing here is used to choose any default: these sets are only evaluated, and no file of
-the package is shipped or committed (GPL-2+ applies to them, not to this repository). ``make
-bench`` fetches the pinned package itself (``make drumkits``, tools/fetch-drumkits.sh:
-``apt-get download`` and ``dpkg-deb -x`` into build/drumkits, no install needed); the folder
-is looked up in this order: the ``root`` argument (the bench passes ``FINGERTIP_DRUMKITS``),
+the package is shipped or committed (their licences apply to them, not to this
+repository). ``make bench`` fetches the pinned package itself (``make drumkits``,
+tools/fetch-drumkits.sh: ``apt-get download`` and ``dpkg-deb -x`` into build/drumkits, no
+install needed); the folder is looked up in this order: the ``root`` argument (the bench passes ``FINGERTIP_DRUMKITS``),
 build/drumkits, Debian's installed package.
 """
 from __future__ import annotations
