@@ -17,8 +17,8 @@ Nothing here is used to choose any default: these sets are only evaluated, and n
 the package is shipped or committed (their licences apply to them, not to this
 repository). ``make bench`` fetches the pinned package itself (``make drumkits``,
 tools/fetch-drumkits.sh: ``apt-get download`` and ``dpkg-deb -x`` into build/drumkits, no
-install needed); the folder is looked up in this order: the ``root`` argument (the bench passes ``FINGERTIP_DRUMKITS``),
-build/drumkits, Debian's installed package.
+install needed); the folder is looked up in this order: the ``root`` argument (the bench
+passes ``FINGERTIP_DRUMKITS``), build/drumkits, Debian's installed package.
 """
 from __future__ import annotations
 
