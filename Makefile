@@ -33,11 +33,12 @@ APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $
 PYTEST_ARGS ?=
 
 .PHONY: help setup system-packages venv venv-fab test test-native test-python lint firmware sim demo \
-        bench vectors clean distclean hostlib
+        bench drumkits vectors clean distclean hostlib
 
 help:
 	@sed -n '2,10p' Makefile | sed 's/^# *//'
 	@echo "  make test-native  only the C++ codec tests (sanitizers)"
+	@echo "  make drumkits     fetch the pinned hydrogen-drumkits (GPL kits) into build/ for make bench"
 	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
@@ -138,9 +139,16 @@ demo: setup
 	$(VPY) -m fingertip.cli demo --out demo-output
 	$(VPY) -m fingertip.cli experiment pinch --trials 3 --seed 0
 
-bench: setup hostlib
+bench: setup hostlib drumkits
 	$(MAKE) --no-print-directory -C firmware bauds
 	$(VPY) tests/bench/run.py
+
+# Real hits for the vibration bench's public-set figures: Debian's hydrogen-drumkits (GPL kits),
+# pinned, downloaded and unpacked into build/drumkits (not installed, never shipped). Only
+# `bench` needs it, never `test`; when it cannot be fetched it warns in one line and the bench
+# skips those figures. FINGERTIP_DRUMKITS=FOLDER makes the bench read another copy.
+drumkits:
+	@bash tools/fetch-drumkits.sh build/drumkits
 
 # Hours, not seconds: four virtual fingertips with audio, forces, events and a recording,
 # devices killed and restarted; figures soak_* into docs/benchmarks.json. Not in `test`.

@@ -232,19 +232,23 @@ _LAST: dict = {}
 def public_sets(root: Path) -> dict[str, float]:
     """The trainer at default options (5 folds) on real hits that Debian's
     hydrogen-drumkits ships (:mod:`tests.bench.public_sets`; the folder from
-    ``FINGERTIP_DRUMKITS`` or Debian's), and the CNN candidate forced on the knocks. Empty,
-    with a warning, when the package's files are not there."""
+    ``FINGERTIP_DRUMKITS``, else the one ``make drumkits`` fetched into build/, else
+    Debian's installed one), and the CNN candidate forced on the knocks. Empty, with a
+    warning, when the package's files are not there."""
     import logging
 
     from fingertip.models.augment import NONE
     from fingertip.models.material import train_material
     from tests.bench import public_sets as ps
 
-    base = ps.find_root(os.environ.get("FINGERTIP_DRUMKITS"))
+    env = os.environ.get("FINGERTIP_DRUMKITS")
+    base = ps.find_root(env)
     if base is None:
-        logging.warning("hydrogen-drumkits not found (apt-get install hydrogen-drumkits, or "
-                        "set FINGERTIP_DRUMKITS): no public-recording figures")
+        where = f"FINGERTIP_DRUMKITS={env}" if env else f"{ps.FETCHED} or {ps.DRUMKITS}"
+        logging.warning("hydrogen-drumkits not found in %s (run `make drumkits`): no "
+                        "public-recording figures", where)
         return {}
+    logging.info("hydrogen-drumkits from %s", base)
     out: dict[str, float] = {}
     reports = {}
     for name, make in (("knocks", ps.knock_set), ("drums", ps.drum_set)):

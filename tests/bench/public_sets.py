@@ -1,7 +1,8 @@
 """Class folders of real recordings that a Debian package ships: knocks on objects and
 drum hits, recorded at 44.1 kHz by other people with other microphones.
 
-Debian's ``hydrogen-drumkits`` (GPL-2+, the Hydrogen drum machine's sample kits) installs
+Debian's ``hydrogen-drumkits`` (the Hydrogen drum machine's sample kits, GPL-2, GPL-2+ or
+CC-BY-SA-3.0 by kit: docs/classifiers.md lists them) installs
 real, dry recordings of single hits under ``/usr/share/hydrogen/data/drumkits``. Two tasks
 fit the fingertip's knock classifier:
 
@@ -12,9 +13,12 @@ fit the fingertip's knock classifier:
   different people in different rooms (BJA_Pacific, ForzeeStereo, The Black Pearl,
   ColomboAcousticDrumkit, Millo_MultiLayered3), unbalanced classes.
 
-Nothing here is used to choose any default: these sets are only evaluated. Get the files
-without installing the package: ``apt-get download hydrogen-drumkits && dpkg -x
-hydrogen-drumkits_*.deb ROOT`` (then pass ``ROOT/usr/share/hydrogen/data/drumkits``).
+Nothing here is used to choose any default: these sets are only evaluated, and no file of
+the package is shipped or committed (their licences apply to them, not to this
+repository). ``make bench`` fetches the pinned package itself (``make drumkits``,
+tools/fetch-drumkits.sh: ``apt-get download`` and ``dpkg-deb -x`` into build/drumkits, no
+install needed); the folder is looked up in this order: the ``root`` argument (the bench
+passes ``FINGERTIP_DRUMKITS``), build/drumkits, Debian's installed package.
 """
 from __future__ import annotations
 
@@ -26,7 +30,11 @@ import numpy as np
 
 log = logging.getLogger(__name__)
 
-DRUMKITS = Path("/usr/share/hydrogen/data/drumkits")
+KITS_IN_PACKAGE = Path("usr/share/hydrogen/data/drumkits")
+FETCHED = Path(__file__).resolve().parents[2] / "build" / "drumkits" / KITS_IN_PACKAGE
+"""Where ``make drumkits`` unpacks the package (build/ is not tracked)."""
+DRUMKITS = Path("/") / KITS_IN_PACKAGE
+"""Where ``apt-get install hydrogen-drumkits`` puts the kits."""
 AUDIO = (".wav", ".flac", ".aiff", ".aif")
 MAX_S = 1.0
 """Hits are cut to their first second (cymbals ring for several)."""
@@ -45,9 +53,11 @@ DRUM_CLASSES = {
 
 
 def find_root(root: str | Path | None = None) -> Path | None:
-    """The drumkits folder (``root``, or Debian's), or None when it is not there."""
-    p = Path(root) if root is not None else DRUMKITS
-    return p if (p / KNOCK_KIT).is_dir() else None
+    """The drumkits folder: ``root`` when given (and only it, so that an explicit folder is
+    never silently replaced by another copy), else the fetched copy under build/, else
+    Debian's installed one; None when the chosen folder does not hold the kits."""
+    candidates = [Path(root)] if root is not None else [FETCHED, DRUMKITS]
+    return next((p for p in candidates if (p / KNOCK_KIT).is_dir()), None)
 
 
 def _write(src: Path, dst: Path) -> bool:
