@@ -4,38 +4,16 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
-import threading
-import time
 from pathlib import Path
 
 from . import ExtraMissing, require
+from .stopper import Stopper
 
 log = logging.getLogger("fingertip")
 
 SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
 """--from -> the module its extra installs."""
-
-
-class Stopper:
-    """Ctrl-C, SIGTERM or the end of --duration."""
-
-    def __init__(self, duration: float | None) -> None:
-        self.event = threading.Event()
-        self.t_end = time.monotonic() + duration if duration else None
-        if threading.current_thread() is threading.main_thread():
-            signal.signal(signal.SIGTERM, lambda *_: self.event.set())
-
-    def wait(self, step: float = 0.1) -> bool:
-        """Sleep a step; False once it is time to stop."""
-        try:
-            left = step if self.t_end is None else min(step, self.t_end - time.monotonic())
-            if left <= 0:
-                return False
-            return not self.event.wait(left)
-        except KeyboardInterrupt:
-            return False
 
 
 def record_from(args: argparse.Namespace) -> int:
