@@ -10,7 +10,6 @@ from typing import Any
 
 from ..hand_args import add_hand_args, hand_audio_from_args, hand_spec_from_args
 from ..network import TRANSPORTS, ExtraMissing
-from ..network.record_cli import record_from
 from .argtypes import number
 
 log = logging.getLogger("fingertip")
@@ -40,6 +39,30 @@ def _open_sources(args: argparse.Namespace, stack: contextlib.ExitStack, hand) -
 
 def _say(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
+
+
+def _record_from(args: argparse.Namespace) -> int:
+    """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
+    from ..network.record_from import NetworkStartError, record_network
+    from ..record.recorder import RecorderError
+
+    try:
+        r = record_network(args.from_net, args.name, args.output, duration=args.duration,
+                           flush_interval=args.flush_interval,
+                           flush_bytes=args.flush_kb * 1024, compression=args.compression,
+                           overwrite=args.force, fsync=args.fsync,
+                           connect=getattr(args, "zenoh_connect", None),
+                           listen=getattr(args, "zenoh_listen", None), say=_say)
+    except (ExtraMissing, ValueError, RecorderError, NetworkStartError) as e:
+        log.error("%s", e)
+        return 2
+    print(f"recorded {sum(r.written.values())} messages from {args.from_net} to "
+          f"{args.output}: " + ", ".join(f"{k} {v}" for k, v in sorted(r.written.items()))
+          + f"; dropped {r.dropped}; undecodable {r.undecodable}", file=sys.stderr)
+    if r.error is not None:
+        log.error("%s", r.error)
+        return 1
+    return 0
 
 
 def _cmd_publish(args: argparse.Namespace) -> int:
@@ -140,7 +163,7 @@ def add_parsers(sub) -> None:
         local = rec.get_default("func")
 
         def record(args: argparse.Namespace) -> int:
-            return record_from(args) if args.from_net else local(args)
+            return _record_from(args) if args.from_net else local(args)
         record.__doc__ = local.__doc__
         rec.set_defaults(func=record)
     p = sub.add_parser("publish", help="publish fingertips live: ROS 2 (DDS, Zenoh) or LSL",
