@@ -50,37 +50,6 @@ def _user_errors():
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
-def _print_evaluation(ev, indent: str = "  ", how: str = "majority vote") -> None:
-    w = ev.windows
-    print(f"{indent}accuracy: {100 * w.accuracy:.2f} % of {w.n} test windows; "
-          f"{100 * ev.recordings.accuracy:.1f} % of {ev.recordings.n} test recordings "
-          f"({how})")
-    rec, prec = w.recall, w.precision
-    width = max(len(c) for c in w.classes)
-    print(f"{indent}{'class':<{width}}  recall  precision  windows")
-    for i, c in enumerate(w.classes):
-        print(f"{indent}{c:<{width}}  {100 * rec[c]:5.1f} %  {100 * prec[c]:6.1f} %  "
-              f"{int(w.confusion[i].sum()):7d}")
-    a, b, k = w.most_confused()
-    if k:
-        print(f"{indent}most confused: {a} <-> {b} ({k} windows)")
-
-
-def _split_line(split: dict) -> str:
-    per = split["per_class"]
-    if split.get("cross_validation_folds"):
-        n = sum(v["recordings"] for v in per.values())
-        return (f"{split['cross_validation_folds']}-fold cross-validation by recording: each "
-                f"of the {n} recordings tested once by a model that never saw it; the "
-                f"exported model is trained on all of them")
-    tr = sum(v["train"] for v in per.values())
-    te = sum(v["test"] for v in per.values())
-    va = sum(v.get("validation", 0) for v in per.values())
-    extra = f", {va} for validation" if va else ""
-    return (f"split by recording: {tr} train{extra}, {te} test recordings "
-            f"(no recording on both sides; per class in report.json)")
-
-
 @reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
@@ -91,6 +60,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
     from ..models.features import FeatureConfig
+    from ..models.classifier.report_text import material_summary_lines
     from ..models.material import train_material
 
     def train():
@@ -102,21 +72,13 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               augment=AugmentConfig(copies=args.augment),
                               cnn_budget=args.cnn_budget)
 
-    def show(r) -> None:
-        d = r.report["dataset"]
-        print(f"dataset: {sum(d['recordings'].values())} recordings in {len(d['classes'])} "
-              f"classes at {', '.join(f'{x:g}' for x in d['rates_hz'])} Hz; bands "
-              f"{r.report['features']['f_lo']:g}-{r.report['features']['f_hi']:g} Hz")
-        print(_split_line(r.report["split"]))
-        _print_material_report(r.report)
-        _print_evaluation(r.evaluation, how="answer after the whole recording")
-
-    return _run_training(train, show, args.json)
+    return _run_training(train, material_summary_lines, args.json)
 
 
-def _run_training(train: Callable[[], Any], show: Callable[[Any], None], as_json: bool) -> int:
-    """Run one training, then print its report as JSON or as ``show`` words it, and the
-    files written; a user error is one line and exit 2."""
+def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
+                  as_json: bool) -> int:
+    """Run one training, then print its report as JSON or in the lines ``words`` makes of
+    it, and the files written; a user error is one line and exit 2."""
     from ..models.classify import json_safe
 
     try:
@@ -127,41 +89,10 @@ def _run_training(train: Callable[[], Any], show: Callable[[Any], None], as_json
     if as_json:
         print(json.dumps(json_safe(r.report)))
         return 0
-    show(r)
+    for line in words(r):
+        print(line)
     print("wrote " + ", ".join(str(p) for p in r.files))
     return 0
-
-
-def _print_material_report(rep: dict) -> None:
-    st = rep["setup"]
-    print(f"windows: first answer after {st['first_window_s']:g} s, one every "
-          f"{st['step_s']:g} s, growing to {st['longest_window_s']:g} s")
-    for why in st["why"].values():
-        print(f"  {why}")
-    times = list(next(iter(rep["candidates"].values()))["accuracy_by_time"]) or ["whole"]
-    print("candidates (accuracy per recording at each decision time; cost):")
-    print("  " + f"{'model':<9}" + "".join(f"{t:>8}" for t in times)
-          + "   params  ms/answer")
-    for name, c in rep["candidates"].items():
-        acc = c["accuracy_by_time"]
-        cells = "".join(f"{100 * acc[t]['accuracy']:7.1f}%" if t in acc and
-                        acc[t]["recordings"] else f"{'-':>8}" for t in times)
-        cost = c.get("cost", {})
-        print(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
-              f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f}")
-    for name, why in rep.get("candidates_skipped", {}).items():
-        print(f"  {name:<9}skipped: {why}")
-    print(f"chosen: {rep['choice']}")
-    if "augmentation" in rep:
-        print(f"augmentation: {rep['augmentation']['why']}")
-    ttd = rep["summary"]["time_to_decision"]
-    if ttd.get("threshold") is not None:
-        print(f"decisions {100 * ttd['target_accuracy']:g} % right: threshold "
-              f"{ttd['threshold']:g}, median {ttd['median_s']:.3f} s to decide")
-    cal = rep["calibration"]
-    print(f"calibration: temperature {cal['temperature']:.2f}, ECE {cal['ece']:.3f} "
-          f"(uncalibrated {cal['ece_uncalibrated']:.3f}); unknown beyond distance "
-          f"{rep['unknown']['novelty_threshold']:.2f}")
 
 
 @reports_bad_files
@@ -170,6 +101,7 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
     from ..models.features import FeatureConfig
+    from ..models.classifier.report_text import shake_summary_lines
     from ..models.shake import train_shake
 
     models = ("cnn", "mlp") if args.model == "both" else (args.model,)
@@ -181,16 +113,7 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
                            rate_hint=args.rate_hint, max_hz=args.max_hz,
                            cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
 
-    def show(r) -> None:
-        print(_split_line(r.report["split"]))
-        for name, res in r.results.items():
-            print(f"{name.upper()}: {res.cost['parameters']:,} parameters, trained in "
-                  f"{res.cost['train_s']:.1f} s, {res.cost['latency_model_ms']['p50']:.3f} ms "
-                  "per prediction (onnxruntime, p50)")
-            _print_evaluation(res.evaluation)
-        print(f"verdict: {r.verdict}")
-
-    return _run_training(train, show, args.json)
+    return _run_training(train, shake_summary_lines, args.json)
 
 
 @reports_bad_files
