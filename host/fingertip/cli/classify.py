@@ -13,7 +13,8 @@ import json
 import logging
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from .argtypes import number
 from ..badfile import FILE_ERRORS, reports_bad_files
@@ -49,37 +50,6 @@ def _user_errors():
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
-def _print_evaluation(ev, indent: str = "  ", how: str = "majority vote") -> None:
-    w = ev.windows
-    print(f"{indent}accuracy: {100 * w.accuracy:.2f} % of {w.n} test windows; "
-          f"{100 * ev.recordings.accuracy:.1f} % of {ev.recordings.n} test recordings "
-          f"({how})")
-    rec, prec = w.recall, w.precision
-    width = max(len(c) for c in w.classes)
-    print(f"{indent}{'class':<{width}}  recall  precision  windows")
-    for i, c in enumerate(w.classes):
-        print(f"{indent}{c:<{width}}  {100 * rec[c]:5.1f} %  {100 * prec[c]:6.1f} %  "
-              f"{int(w.confusion[i].sum()):7d}")
-    a, b, k = w.most_confused()
-    if k:
-        print(f"{indent}most confused: {a} <-> {b} ({k} windows)")
-
-
-def _split_line(split: dict) -> str:
-    per = split["per_class"]
-    if split.get("cross_validation_folds"):
-        n = sum(v["recordings"] for v in per.values())
-        return (f"{split['cross_validation_folds']}-fold cross-validation by recording: each "
-                f"of the {n} recordings tested once by a model that never saw it; the "
-                f"exported model is trained on all of them")
-    tr = sum(v["train"] for v in per.values())
-    te = sum(v["test"] for v in per.values())
-    va = sum(v.get("validation", 0) for v in per.values())
-    extra = f", {va} for validation" if va else ""
-    return (f"split by recording: {tr} train{extra}, {te} test recordings "
-            f"(no recording on both sides; per class in report.json)")
-
-
 @reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
@@ -89,65 +59,40 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     logistic regression on log bands, an MLP) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
-    from ..models.classify import json_safe
     from ..models.features import FeatureConfig
+    from ..models.classifier.report_text import material_summary_lines
     from ..models.material import train_material
 
+    def train():
+        return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
+                              features=FeatureConfig(canonical_rate=args.canonical_rate),
+                              hidden=args.hidden, test_fraction=args.test_fraction,
+                              seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
+                              epochs=args.epochs, folds=args.folds, models=args.models,
+                              augment=AugmentConfig(copies=args.augment),
+                              cnn_budget=args.cnn_budget)
+
+    return _run_training(train, material_summary_lines, args.json)
+
+
+def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
+                  as_json: bool) -> int:
+    """Run one training, then print its report as JSON or in the lines ``words`` makes of
+    it, and the files written; a user error is one line and exit 2."""
+    from ..models.classify import json_safe
+
     try:
-        r = train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
-                           features=FeatureConfig(canonical_rate=args.canonical_rate),
-                           hidden=args.hidden, test_fraction=args.test_fraction,
-                           seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
-                           epochs=args.epochs, folds=args.folds, models=args.models,
-                           augment=AugmentConfig(copies=args.augment),
-                           cnn_budget=args.cnn_budget)
+        r = train()
     except _user_errors() as e:
         log.error("%s", e)
         return 2
-    if args.json:
+    if as_json:
         print(json.dumps(json_safe(r.report)))
         return 0
-    d = r.report["dataset"]
-    print(f"dataset: {sum(d['recordings'].values())} recordings in {len(d['classes'])} "
-          f"classes at {', '.join(f'{x:g}' for x in d['rates_hz'])} Hz; bands "
-          f"{r.report['features']['f_lo']:g}-{r.report['features']['f_hi']:g} Hz")
-    print(_split_line(r.report["split"]))
-    _print_material_report(r.report)
-    _print_evaluation(r.evaluation, how="answer after the whole recording")
+    for line in words(r):
+        print(line)
     print("wrote " + ", ".join(str(p) for p in r.files))
     return 0
-
-
-def _print_material_report(rep: dict) -> None:
-    st = rep["setup"]
-    print(f"windows: first answer after {st['first_window_s']:g} s, one every "
-          f"{st['step_s']:g} s, growing to {st['longest_window_s']:g} s")
-    for why in st["why"].values():
-        print(f"  {why}")
-    times = list(next(iter(rep["candidates"].values()))["accuracy_by_time"]) or ["whole"]
-    print("candidates (accuracy per recording at each decision time; cost):")
-    print("  " + f"{'model':<9}" + "".join(f"{t:>8}" for t in times)
-          + "   params  ms/answer")
-    for name, c in rep["candidates"].items():
-        acc = c["accuracy_by_time"]
-        cells = "".join(f"{100 * acc[t]['accuracy']:7.1f}%" if t in acc and
-                        acc[t]["recordings"] else f"{'-':>8}" for t in times)
-        cost = c.get("cost", {})
-        print(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
-              f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f}")
-    for name, why in rep.get("candidates_skipped", {}).items():
-        print(f"  {name:<9}skipped: {why}")
-    print(f"chosen: {rep['choice']}")
-    if "augmentation" in rep:
-        print(f"augmentation: {rep['augmentation']['why']}")
-    ttd = rep["summary"]["time_to_decision"]
-    if ttd.get("threshold") is not None:
-        print(f"decisions {100 * ttd['target_accuracy']:g} % right: threshold "
-              f"{ttd['threshold']:g}, median {ttd['median_s']:.3f} s to decide")
-    cal = rep["calibration"]
-    print(f"calibration: temperature {cal['temperature']:.2f}, ECE {cal['ece']:.3f} "
-          f"(uncalibrated {cal['ece_uncalibrated']:.3f}); unknown beyond distance "
-          f"{rep['unknown']['novelty_threshold']:.2f}")
 
 
 @reports_bad_files
@@ -155,61 +100,20 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
-    from ..models.classify import json_safe
     from ..models.features import FeatureConfig
+    from ..models.classifier.report_text import shake_summary_lines
     from ..models.shake import train_shake
 
     models = ("cnn", "mlp") if args.model == "both" else (args.model,)
-    try:
-        r = train_shake(args.folder, args.out, models=models, step_s=args.step,
-                        features=FeatureConfig(canonical_rate=args.canonical_rate),
-                        test_fraction=args.test_fraction, seed=args.seed,
-                        rate_hint=args.rate_hint, max_hz=args.max_hz,
-                        cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
-    except _user_errors() as e:
-        log.error("%s", e)
-        return 2
-    if args.json:
-        print(json.dumps(json_safe(r.report)))
-        return 0
-    print(_split_line(r.report["split"]))
-    for name, res in r.results.items():
-        print(f"{name.upper()}: {res.cost['parameters']:,} parameters, trained in "
-              f"{res.cost['train_s']:.1f} s, {res.cost['latency_model_ms']['p50']:.3f} ms "
-              "per prediction (onnxruntime, p50)")
-        _print_evaluation(res.evaluation)
-    print(f"verdict: {r.verdict}")
-    print("wrote " + ", ".join(str(p) for p in r.files))
-    return 0
 
+    def train():
+        return train_shake(args.folder, args.out, models=models, step_s=args.step,
+                           features=FeatureConfig(canonical_rate=args.canonical_rate),
+                           test_fraction=args.test_fraction, seed=args.seed,
+                           rate_hint=args.rate_hint, max_hz=args.max_hz,
+                           cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
 
-def _simulated_source(name: str, kind: str, duration: float | None, realtime: bool,
-                      seed: int):
-    import numpy as np
-
-    from ..audio import SimulatedSource
-    from ..sim.physics import BOX_CONTENTS, BoxShake, Slide, material, simulate
-
-    if kind == "shake" or name in BOX_CONTENTS:
-        if name not in BOX_CONTENTS:
-            raise LookupError(f"--simulate for shake takes one of {', '.join(BOX_CONTENTS)}")
-        scene = BoxShake(name, duration=duration or 5.6, seed=seed)
-    else:
-        try:
-            m = material(name)
-        except ValueError as e:
-            raise LookupError(str(e)) from None
-        scene = Slide(m.name, duration=duration or 3.0, seed=seed)
-    audio = simulate(scene, seed=seed).audio
-    assert audio is not None
-    x = audio.samples
-    fs = audio.fs
-
-    def func(t: np.ndarray) -> np.ndarray:
-        return x[np.minimum(np.rint(t * fs).astype(np.intp), len(x) - 1)]
-
-    return SimulatedSource(func, fs, realtime=realtime, duration=len(x) / fs,
-                           name=f"simulated {scene.name}({name})")
+    return _run_training(train, shake_summary_lines, args.json)
 
 
 @reports_bad_files
@@ -217,13 +121,14 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
     paired with a fingertip's serial port, or the virtual fingertip) with a model made by
     `fingertip train`: one prediction per window with its time, then the majority vote."""
-    from ..models.classify import Classification, VibrationClassifier
+    from ..models.classify import VibrationClassifier
+    from ..models.live_classify import run_classification, sound_card_source
 
     sources = [s for s in (args.file, args.audio, args.port, args.simulate) if s is not None]
     if len(sources) != 1:
         log.error("give exactly one of FILE, --audio DEVICE, --port PORT or --simulate NAME")
         return 2
-    forces = None
+    forces = ft = None
     if args.force_model:
         if args.port is None:
             log.error("--force-model needs --port: the fingertip whose forces go with the "
@@ -235,49 +140,26 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     try:
         clf = VibrationClassifier(args.model, kind=args.kind)
         if args.file is not None:
-            result = clf.classify(args.file, rate=args.rate)
-            preds = result.predictions
-            for p in preds:
-                _show(p, args.json)
-                if args.decide_at is not None and _decided(p, args.decide_at):
-                    break
-        else:
-            if args.simulate is not None:
-                src = _simulated_source(args.simulate, args.kind, args.duration,
-                                        not args.fast, args.seed)
-            else:
-                from ..audio import SoundDeviceSource
-                from ..device.pairing import sound_card_for_port
+            source = args.file
+        elif args.simulate is not None:
+            from ..sim.scene_audio import scene_audio_source
 
-                device = args.audio
-                if args.port is not None:
-                    device = sound_card_for_port(args.port)
-                elif device.isdigit():
-                    device = int(device)
-                src = SoundDeviceSource(device, args.samplerate, channels=args.channel + 1,
-                                        dtype="float32")
-            preds = []
-            try:
-                for p in clf.stream(src, duration=args.duration, channel=args.channel):
-                    preds.append(p)
-                    _show(p, args.json, forces)
-                    if args.decide_at is not None and _decided(p, args.decide_at):
-                        break
-            except KeyboardInterrupt:
-                pass
-            finally:
-                src.stop()
-                if forces is not None:
-                    ft.close()
-            result = Classification(preds, clf.classes, clf.novelty_threshold)
+            source = scene_audio_source(args.simulate, args.kind, args.duration,
+                                        not args.fast, args.seed)
+        else:
+            source = sound_card_source(args.audio, args.port, args.samplerate, args.channel)
+        result = run_classification(clf, source, rate=args.rate, duration=args.duration,
+                                    channel=args.channel, decide_at=args.decide_at,
+                                    on_prediction=lambda p: _show(p, args.json, forces))
     except _user_errors() as e:
-        if forces is not None:
-            ft.close()
         log.error("%s", e)
         return 2
+    finally:
+        if ft is not None:
+            ft.close()
+    preds = result.predictions
     if args.decide_at is not None:
-        return _print_decision(Classification(preds, clf.classes, clf.novelty_threshold),
-                               args.decide_at, args.json)
+        return _print_decision(result, args.decide_at, args.json)
     vote = result.vote
     shares = result.shares()
     if args.json:
@@ -290,11 +172,6 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         print(f"vote: {vote} ({100 * shares[vote]:.0f} % of {len(preds)} predictions)"
               + (f"; {clipped} window(s) clipped" if clipped else ""))
     return 0
-
-
-def _decided(p, threshold: float) -> bool:
-    run = p.running or p.probabilities
-    return max(run.values()) >= threshold
 
 
 def _print_decision(result, threshold: float, as_json: bool) -> int:
@@ -315,31 +192,20 @@ def _print_decision(result, threshold: float, as_json: bool) -> int:
 
 
 def _open_forces(port: str, path: str):
-    """The fingertip on ``port`` streaming into a :class:`ForceWindow` of the model at
-    ``path`` (checked against it); (None, None) after logging why not."""
-    from ..device import Fingertip, FingertipError
+    """The fingertip on ``port`` streaming into a force window of the model at ``path``;
+    (None, None) after logging why not."""
+    from ..device import FingertipError
+    from ..models.live_classify import ForceModelRefused, open_force_window
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from ..models.force_load import ForceWindow, ModelMismatch, force_model_for
 
     try:
-        ft = Fingertip(port).open()
+        return open_force_window(port, path)
+    except ForceModelRefused as e:
+        log.error("--force-model refused: %s", e)
     except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
         log.error("%s", e)
-        return None, None
-    try:
-        window = ForceWindow(force_model_for(ft, path))
-        ft.add_callback(window.add)
-        ft.start()
-    except (ModelMismatch, FileNotFoundError, ValueError) as e:
-        ft.close()
-        log.error("--force-model refused: %s", e)
-        return None, None
-    except FingertipError as e:
-        ft.close()
-        log.error("%s", e)
-        return None, None
-    return window, ft
+    return None, None
 
 
 def _show(p, as_json: bool, forces=None) -> None:

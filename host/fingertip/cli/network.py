@@ -4,130 +4,65 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import logging
 import sys
-import time
 from typing import Any
 
 from ..hand_args import add_hand_args, hand_audio_from_args, hand_spec_from_args
-from ..network import ExtraMissing
-from ..network.record_cli import Stopper, record_from
+from ..network import TRANSPORTS, ExtraMissing
 from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
-TRANSPORTS = ("dds", "zenoh", "lsl")
+
+def _virtual_ports(n: int, seed: int, stack: contextlib.ExitStack) -> list[str]:
+    """``--virtual N``: N idle virtual fingertips on ptys (the simulator sits above the
+    network layer, so the command line opens them and hands their ports down)."""
+    from ..sim.pty_device import virtual_fingertip_ports
+
+    return virtual_fingertip_ports(n, seed, stack)
 
 
-def _checked_force_model(path: str, sources: list, model):
-    """``--force-model FORCE.onnx`` checked against every live fingertip (channels, units,
-    device serial; refused with the reason), as ``stream`` and ``record`` do. A replay's
-    frames are taken as they are."""
-    from ..device import Fingertip
-    from ..device.finger import FingerView
-    from ..models.force_load import check_model, device_serial, force_model_for
-
-    live = [s for s in sources if isinstance(s, (Fingertip, FingerView))]
-    if not live:
-        return model
-    model = force_model_for(live[0], path)
-    for ft in live[1:]:
-        for w in check_model(model, channels=ft.channels, serial=device_serial(ft),
-                             gain=int(ft.info.gain)):
-            log.warning("%s", w)
-    return model
-
-
-def _names(args: argparse.Namespace, n: int) -> list[str]:
-    from ..record.schemas import check_name
-
-    if args.name:
-        names = [s.strip() for s in args.name.split(",")]
-    else:
-        names = ["fingertip"] if n == 1 else [f"finger{i}" for i in range(n)]
-    if len(names) != n:
-        raise ValueError(f"--name lists {len(names)} names for {n} fingertips")
-    if len(set(names)) != n:
-        raise ValueError("--name: every fingertip needs its own name")
-    return [check_name(s) for s in names]
-
-
-def make_transport(kind: str, args: argparse.Namespace):
-    if kind == "dds":
-        from ..network.dds import DdsTransport
-
-        return DdsTransport()
-    if kind == "zenoh":
-        from ..network.zenoh import ZenohTransport
-
-        return ZenohTransport(args.zenoh_connect, args.zenoh_listen)
-    from ..network.lsl import LslTransport
-
-    return LslTransport()
-
-
-def _open_sources(args, stack: contextlib.ExitStack, hand=None) -> list[Any]:
-    """The fingertips to publish: opened devices, virtual ones on ptys, a replay, or the
-    fingers of a hand (``hand``: its HandSpec)."""
-    from ..device import Fingertip, SharedReader
+def _open_sources(args: argparse.Namespace, stack: contextlib.ExitStack, hand) -> list[Any]:
+    """The fingertips to publish: a hand's fingers, a replay, virtual ones or real ones."""
+    from ..network import publish_sources as ps
 
     if hand is not None:
-        from ..network.hand import open_fingers
-
-        return open_fingers(hand, stack)
+        return ps.open_hand(hand, stack)
     if args.replay:
-        from ..record.replay import Replay
-
-        rp = Replay(args.replay, args.name.split(",")[0] if args.name else None,
-                    speed=args.speed, rebase=not args.sim_time)
-        stack.enter_context(rp)
-        return [rp]
-    if args.virtual:
-        from ..sim import VirtualFirmware
-        from ..sim.physics import Idle, VirtualStrainSensor
-        from ..sim.pty_device import PtyDevice
-
-        ports = []
-        for i in range(args.virtual):
-            src = VirtualStrainSensor(args.seed + i).as_source(Idle(duration=1e9))
-            dev = stack.enter_context(PtyDevice(VirtualFirmware(4, source=src)))
-            ports.append(dev.port)
-    else:
-        ports = args.port or []
-    # The feed takes frames by callback (no queue), all ports read on one thread.
-    reader = SharedReader()
-    stack.callback(reader.close)
-    fts = [stack.enter_context(Fingertip(p, queue_size=0, reader=reader).open())
-           for p in ports]
-    fts += [stack.enter_context(Fingertip(serial_number=s, queue_size=0, reader=reader).open())
-            for s in args.serial or []]
-    return fts
+        return [ps.open_replay(args.replay, args.name.split(",")[0] if args.name else None,
+                               stack, speed=args.speed, rebase=not args.sim_time)]
+    ports = (_virtual_ports(args.virtual, args.seed, stack) if args.virtual
+             else args.port or [])
+    return ps.open_fingertips(ports, args.serial or [], stack)
 
 
-def _audio_source(args):
-    from ..audio import FileSource, SimulatedSource, SoundDeviceSource
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
-    if args.audio is not None:
-        if args.audio == "paired":  # the card behind the same USB hub as the fingertip
-            from ..device.pairing import sound_card_for_port
 
-            if not args.port:
-                raise ValueError("--audio paired needs --port (the sound card is found "
-                                 "next to it on the USB hub)")
-            dev: int | str = sound_card_for_port(args.port[0])
-        else:
-            dev = int(args.audio) if args.audio.isdigit() else args.audio
-        return SoundDeviceSource(dev, args.audio_rate, channels=1, dtype="int16")
-    if args.audio_file:
-        return FileSource(args.audio_file, realtime=True)
-    if args.virtual_audio:
-        import numpy as np
+def _record_from(args: argparse.Namespace) -> int:
+    """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
+    from ..network.record_from import NetworkStartError, record_network
+    from ..record.recorder import RecorderError
 
-        def tone(t):
-            return 0.25 * np.sin(2 * np.pi * 440.0 * t)
-        return SimulatedSource(tone, args.audio_rate, dtype="int16", blocksize=441)
-    return None
+    try:
+        r = record_network(args.from_net, args.name, args.output, duration=args.duration,
+                           flush_interval=args.flush_interval,
+                           flush_bytes=args.flush_kb * 1024, compression=args.compression,
+                           overwrite=args.force, fsync=args.fsync,
+                           connect=getattr(args, "zenoh_connect", None),
+                           listen=getattr(args, "zenoh_listen", None), say=_say)
+    except (ExtraMissing, ValueError, RecorderError, NetworkStartError) as e:
+        log.error("%s", e)
+        return 2
+    print(f"recorded {sum(r.written.values())} messages from {args.from_net} to "
+          f"{args.output}: " + ", ".join(f"{k} {v}" for k, v in sorted(r.written.items()))
+          + f"; dropped {r.dropped}; undecodable {r.undecodable}", file=sys.stderr)
+    if r.error is not None:
+        log.error("%s", r.error)
+        return 1
+    return 0
 
 
 def _cmd_publish(args: argparse.Namespace) -> int:
@@ -135,11 +70,12 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     audio|events|info over DDS (default) or Zenoh, or Lab Streaming Layer outlets."""
     from ..audio import AudioError
     from ..device import FingertipError
+    from ..network import publish_sources as ps
+    from ..network.hand import hand_conflict
+    from ..network.publish import PublishSettings, publish
     from ..protocol import ProtocolVersionError
-    from ..record.recorder import Recorder, RecorderError, device_info
+    from ..record.recorder import Recorder, RecorderError
     from ..transport import DeviceNotFound, TransportError
-    from ..network.feed import Feed
-    from ..network.hand import hand_conflict, pump_hand_audio
 
     try:
         hand = hand_spec_from_args(args)
@@ -157,20 +93,22 @@ def _cmd_publish(args: argparse.Namespace) -> int:
         from .record import load_force_model
 
         force_model = load_force_model(args.force_model) if args.force_model else None
-        classifiers = _load_classifiers(args)
+        classifiers = ps.load_classifiers(args.material_model, args.shake_model)
     except (ValueError, OSError) as e:
         log.error("%s", e)
         return 2
     with contextlib.ExitStack() as stack:
         try:
-            transport = make_transport(args.transport, args)
+            transport = ps.make_transport(args.transport, args.zenoh_connect,
+                                          args.zenoh_listen)
             stack.callback(transport.close)
             sources = _open_sources(args, stack, hand)
             if args.force_model and args.force_model.lower().endswith(".onnx"):
-                force_model = _checked_force_model(args.force_model, sources, force_model)
+                force_model = ps.checked_force_model(args.force_model, sources, force_model)
             names = ([s.name for s in sources] if args.replay or hand else
-                     _names(args, len(sources)))
-            audio = _audio_source(args)
+                     ps.publish_names(args.name, len(sources)))
+            audio = ps.audio_source(args.audio, args.audio_file, args.virtual_audio,
+                                    args.audio_rate, args.port)
             hand_audio = [] if hand is None else hand_audio_from_args(
                 args, names, sample_rate=args.audio_rate)
             rec = None
@@ -190,183 +128,20 @@ def _cmd_publish(args: argparse.Namespace) -> int:
                 log.error("--sim-time goes with --replay (a live device runs on ROS time)")
                 return 2
             timebase = sources[0].recording.timebase  # the recording's own stamps
-        feed = Feed(transport, timebase=timebase)
-        stack.callback(feed.close)
-        # Publishers first, so that subscribers can find them.
-        for src, name in zip(sources, names, strict=True):
-            feed.add_fingertip(name, force_model, device_info(src, name))
-        _serve_services(args, transport, feed, rec, sources, names)
-        if audio is not None and hasattr(transport, "declare_audio"):
-            from ..record.schemas import AUDIO_ENCODINGS
-
-            transport.declare_audio(names[0], audio.sample_rate, audio.channels,
-                                    AUDIO_ENCODINGS[audio.dtype.name])
-        _wait_subscribers(args, transport)
-        for src, name in zip(sources, names, strict=True):
-            feed.attach(src, name, force_model)
-            if rec is not None:
-                rec.attach(src, name, force_model=force_model)
-        if args.replay:
-            _replay_extras(args, sources[0], names[0], feed, transport, force_model)
+        settings = PublishSettings(
+            transport_name=args.transport, duration=args.duration, replay=bool(args.replay),
+            sim_time=args.sim_time, tare=args.tare, read_only=args.read_only,
+            service_tare_samples=args.service_tare_samples,
+            wait_subscribers=args.wait_subscribers, wait_timeout=args.wait_timeout,
+            linger=args.linger, audio_rate=args.audio_rate)
         try:
-            for src, name in zip(sources, names, strict=True):
-                if args.tare and hasattr(src, "tare"):
-                    offsets = src.tare(samples=args.tare)
-                    _event(feed, rec, name, "tare", float(args.tare), json.dumps(list(offsets)))
-            if audio is not None:
-                feed.pump_audio(audio, names[0], also=_audio_consumers(
-                    feed, rec, names[0], classifiers, audio.sample_rate))
-            pump_hand_audio(feed, transport, hand_audio, also=_audio_consumers(
-                feed, rec, "", [], args.audio_rate))
-            for src, name in zip(sources, names, strict=True):
-                src.start()
-                if not args.replay:  # a replay publishes the events it recorded
-                    _event(feed, rec, name, "start")
+            publish(transport, sources, names, settings=settings, force_model=force_model,
+                    classifiers=classifiers, audio=audio, hand_audio=hand_audio, rec=rec,
+                    timebase=timebase, say=_say)
         except (FingertipError, AudioError) as e:
             log.error("%s", e)
             return 2
-        print(f"publishing {', '.join(names)} over {args.transport}"
-              + (f" for {args.duration:g} s" if args.duration else " (Ctrl-C to stop)"),
-              file=sys.stderr, flush=True)
-        stopper = Stopper(args.duration)
-        reconnects = {n: getattr(s.stats, "reconnects", 0)
-                      for s, n in zip(sources, names, strict=True)}
-        while stopper.wait():
-            if args.replay and sources[0].ended:
-                break
-            for src, name in zip(sources, names, strict=True):
-                r = getattr(src.stats, "reconnects", 0)
-                if r != reconnects[name]:
-                    reconnects[name] = r
-                    _event(feed, rec, name, "reconnect", float(r))
-        for src, name in zip(sources, names, strict=True):
-            with contextlib.suppress(FingertipError):
-                src.stop()
-            if not args.replay:
-                _event(feed, rec, name, "stop")
-        for a in [audio] + [src for src, _ in hand_audio]:
-            if a is not None:
-                a.stop()
-        feed.close()
-        time.sleep(args.linger)  # reliable messages still in flight reach their readers
-        _summary(feed, transport)
     return 0
-
-
-def _replay_extras(args, rp, name: str, feed, transport, force_model) -> None:
-    """A replay also publishes its recorded forces (unless a force model recomputes them),
-    events and audio; with --sim-time, /clock follows the recording's time."""
-    if force_model is None:
-        rp.add_wrench_callback(lambda w: feed.wrench(name, w.host_time, w.force, w.torque))
-    rp.add_event_callback(lambda e: feed.event(name, e.kind, e.value, host_time=e.time,
-                                               detail=e.detail))
-    from ..record.reader import RecordingError
-
-    try:
-        audio = rp.audio()
-    except RecordingError:  # a recording without audio
-        audio = None
-    if audio is not None:
-        feed.pump_audio(audio, name)
-    if args.sim_time:
-        clock = getattr(transport, "publish_clock", None)
-        if clock is None:
-            log.warning("--sim-time: this transport has no /clock; stamps are the "
-                        "recording's")
-        else:
-            rp.add_callback(lambda f: clock(feed.timebase.to_ns(f.host_time)))
-
-
-def _load_classifiers(args) -> list[tuple[str, Any]]:
-    """``(kind, VibrationClassifier)`` for --material-model and --shake-model."""
-    out = []
-    for kind, path in (("material", args.material_model), ("shake", args.shake_model)):
-        if path:
-            from ..models.classify import VibrationClassifier
-
-            out.append((kind, VibrationClassifier(path, kind=kind)))
-    return out
-
-
-def _audio_consumers(feed, rec, name: str, classifiers, sample_rate: float):
-    """What else each audio chunk feeds: the local recording, the classifiers (whose
-    predictions are published as ``material`` / ``shake`` events)."""
-    from ..models.classify import to_float
-
-    lives = [(kind, clf.live(sample_rate)) for kind, clf in classifiers]
-    if rec is None and not lives:
-        return None
-
-    def consume(_name: str, chunk) -> None:
-        if rec is not None:
-            rec.write_audio(_name, chunk)
-        if not lives:
-            return
-        x = to_float(chunk.samples[:, 0])
-        for kind, live in lives:
-            for p in live.feed(x, chunk.first_index, chunk):
-                _prediction_event(feed, rec, name, kind, p)
-    return consume
-
-
-def _prediction_event(feed, rec, name: str, kind: str, p) -> None:
-    """A classifier's prediction: value = its probability, detail = the prediction (JSON)."""
-    detail = json.dumps(p.to_dict())
-    t = p.host_time if p.host_time is not None else time.monotonic()
-    if kind == "shake":
-        feed.event(name, "shake", p.probability, host_time=t, detail=detail)
-    else:
-        feed.event(name, "material", p.probability, host_time=t, detail=detail)
-    if rec is not None:
-        rec.write_event(name, kind, p.probability, host_time=t, detail=detail)
-
-
-def _event(feed, rec, name: str, kind: str, value: float = 0.0, detail: str = "") -> None:
-    """An event on the network and, when recording locally too, in the file (same time)."""
-    t = time.monotonic()
-    feed.event(name, kind, value, host_time=t, detail=detail)
-    if rec is not None:
-        rec.write_event(name, kind, value, host_time=t, detail=detail)
-
-
-def _serve_services(args, transport, feed, rec, sources, names) -> None:
-    """Tare services, unless --read-only (then nothing on the network changes the device)."""
-    if args.read_only or not hasattr(transport, "serve_tare"):
-        return
-    for src, name in zip(sources, names, strict=True):
-        if not hasattr(src, "tare"):
-            continue  # a replay has nothing to tare
-
-        def tare(_src=src, _name=name) -> tuple[bool, str]:
-            offsets = _src.tare(samples=args.service_tare_samples)
-            _event(feed, rec, _name, "tare", float(args.service_tare_samples),
-                   json.dumps(list(offsets)))
-            return True, "tare offsets: " + ", ".join(map(str, offsets))
-        transport.serve_tare(name, tare)
-
-
-def _wait_subscribers(args, transport) -> None:
-    if not args.wait_subscribers:
-        return
-    wait = getattr(transport, "wait_subscribers", None)
-    if wait is None:
-        return
-    if not wait(args.wait_subscribers, timeout=args.wait_timeout):
-        log.warning("only some of the %d subscribers expected came within %g s: publishing "
-                    "anyway", args.wait_subscribers, args.wait_timeout)
-
-
-def _summary(feed, transport) -> None:
-    pub = sum(feed.published.values())
-    errs = dict(feed.errors)
-    parts = ", ".join(f"{k} {v}" for k, v in sorted(feed.published.items()))
-    line = f"published {pub} messages ({parts})"
-    if errs:
-        line += f"; errors {errs}"
-    for service, st in getattr(transport, "services", {}).items():
-        line += (f"; {service}: {st.requests} requests, {st.answered} answered, "
-                 f"{st.refused} refused {st.reasons or ''}")
-    print(line, file=sys.stderr, flush=True)
 
 
 # --- parser -----------------------------------------------------------------------------------
@@ -388,7 +163,7 @@ def add_parsers(sub) -> None:
         local = rec.get_default("func")
 
         def record(args: argparse.Namespace) -> int:
-            return record_from(args) if args.from_net else local(args)
+            return _record_from(args) if args.from_net else local(args)
         record.__doc__ = local.__doc__
         rec.set_defaults(func=record)
     p = sub.add_parser("publish", help="publish fingertips live: ROS 2 (DDS, Zenoh) or LSL",

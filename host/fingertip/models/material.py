@@ -78,6 +78,7 @@ from .classify import (
     stratified_folds,
 )
 from .features import FeatureConfig, as_recording
+from .figures import pyplot, save_png
 from .reliability import apply_temperature, fit_temperature, plot_reliability
 
 log = logging.getLogger(__name__)
@@ -447,10 +448,7 @@ def plot_decision(table: dict[str, dict], curve: list[dict], path: str | os.Path
                   name: str = "") -> Path:
     """Accuracy against time: at fixed decision times, and at each confidence threshold
     (median time to decision), the way a user chooses a threshold."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(5.2, 3.8), dpi=110)
     pts = [(v["seconds"], v["accuracy"]) for v in table.values()
@@ -471,9 +469,4 @@ def plot_decision(table: dict[str, dict], curve: list[dict], path: str | os.Path
                  fontsize=9)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_png(fig, path)

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .figures import pyplot, save_png
+
 T_RANGE = (0.05, 20.0)
 ECE_BINS = 10
 
@@ -95,10 +97,7 @@ def unknown_score(probs: np.ndarray) -> np.ndarray:
 def plot_reliability(confidence: np.ndarray, correct: np.ndarray, path: str | os.PathLike,
                      title: str = "", bins: int = ECE_BINS) -> Path:
     """A PNG reliability diagram: accuracy against confidence per bin, with counts."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     conf, acc, n = reliability_bins(confidence, correct, bins)
     edges = np.linspace(0, 1, bins + 1)
@@ -116,12 +115,7 @@ def plot_reliability(confidence: np.ndarray, correct: np.ndarray, path: str | os
     ax.set_ylabel("accuracy")
     ax.set_title(title or f"ECE {ece(confidence, correct, bins):.3f}", fontsize=9)
     ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_png(fig, path)
 
 
 # --- novelty: how far an input lies from every trained class ---------------------------------

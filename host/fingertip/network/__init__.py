@@ -13,6 +13,9 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+TRANSPORTS = ("dds", "zenoh", "lsl")
+"""The transports ``fingertip publish --transport`` offers."""
+
 EXTRAS = {"cyclonedds": "ros", "zenoh": "zenoh", "pylsl": "lsl", "rosbags": "ros"}
 """Python module -> the extra of ``fingertip`` that installs it."""
 

@@ -7,6 +7,7 @@ close the pty and make a new one, as a USB cable pulled and pushed back in would
 """
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import select
@@ -190,3 +191,16 @@ class PtyDevice:
                         self.firmware.advance(self._device_us())
                         self._write(self.firmware.receive(data))
                 self._write(self.firmware.advance(self._device_us()))
+
+
+def virtual_fingertip_ports(n: int, seed: int, stack: contextlib.ExitStack) -> list[str]:
+    """Start ``n`` idle 4-channel virtual fingertips (unit ``seed + i`` each), each on its
+    own pty closed with ``stack``, and return their ports."""
+    from .physics import Idle, VirtualStrainSensor
+
+    ports = []
+    for i in range(n):
+        src = VirtualStrainSensor(seed + i).as_source(Idle(duration=1e9))
+        dev = stack.enter_context(PtyDevice(VirtualFirmware(4, source=src)))
+        ports.append(dev.port)
+    return ports

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..figures import pyplot, save_png
 from .voting import majority_vote
 from .windows import Windows
 
@@ -69,10 +70,7 @@ def evaluate(y_true: Sequence[int], y_pred: Sequence[int], classes: list[str],
 def plot_confusion(ev: Evaluation, path: str | os.PathLike, title: str = "") -> Path:
     """A PNG of the confusion matrix: rows normalised to the true class (colour and
     percentage), with the counts."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     cm = ev.confusion
     rows = cm.sum(axis=1, keepdims=True)
@@ -94,12 +92,7 @@ def plot_confusion(ev: Evaluation, path: str | os.PathLike, title: str = "") -> 
     ax.set_title(title or f"accuracy {100 * ev.accuracy:.2f} % over {ev.n} {ev.unit}",
                  fontsize=9)
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="share of the true class")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return save_png(fig, path)
 
 
 @dataclass

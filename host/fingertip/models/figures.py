@@ -1,0 +1,29 @@
+"""The PNG figures the trainers write: matplotlib on the Agg backend (no screen needed),
+imported only when a figure is drawn, and one way to save a figure and free it."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the Agg backend, unless the caller already chose one
+    (``force=False``: a notebook keeps its own)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_png(fig: Any, path: str | os.PathLike) -> Path:
+    """Lay out ``fig``, write it to ``path`` (making its folder) and close it, so that a
+    training run that draws many figures does not keep them all in memory."""
+    fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    pyplot().close(fig)
+    return path

@@ -1,0 +1,72 @@
+"""The ``fingertip record --from dds|zenoh|lsl`` session: what ``fingertip publish`` sends,
+recorded into the MCAP file a local recording writes, until Ctrl-C, SIGTERM or the end of a
+duration."""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..record.recorder import Recorder
+from ..record.schemas import check_name
+from . import require
+from .receive import NetworkRecorder
+from .stopper import Stopper
+
+log = logging.getLogger("fingertip")
+
+SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
+"""--from -> the module its extra installs."""
+
+
+class NetworkStartError(RuntimeError):
+    """The network side (DDS, Zenoh, LSL) could not start, for example with bad settings."""
+
+
+@dataclass
+class NetworkRecording:
+    """What a session recorded: messages written per topic kind, dropped and undecodable
+    ones, and the recorder's error when writing failed part-way (None when it did not)."""
+
+    written: dict[str, int]
+    dropped: int
+    undecodable: int
+    error: BaseException | None
+
+
+def record_network(source: str, names: str, output: str | Path, *,
+                   duration: float | None = None, flush_interval: float = 0.5,
+                   flush_bytes: int = 1 << 20, compression: str = "zstd",
+                   overwrite: bool = False, fsync: bool = False,
+                   connect: Sequence[str] | None = None, listen: Sequence[str] | None = None,
+                   say: Callable[[str], Any] = log.info) -> NetworkRecording:
+    """Record the fingertips ``names`` (comma-separated) published over ``source`` into
+    ``output``. Raises :class:`~fingertip.network.ExtraMissing` when the transport's extra
+    is missing, ValueError or :class:`~fingertip.record.recorder.RecorderError` for a bad
+    name or file, and :class:`NetworkStartError` when the network cannot start (then no new
+    empty file is left behind)."""
+    stopper = Stopper(duration)  # a SIGTERM while starting still ends cleanly
+    require(SOURCE_MODULES[source], f"record --from {source}")
+    out = Path(output)
+    existed = out.exists()
+    checked = [check_name(s.strip()) for s in names.split(",")]
+    rec = Recorder(out, flush_interval=flush_interval, flush_bytes=flush_bytes,
+                   compression=compression, overwrite=overwrite, fsync=fsync).start()
+    try:
+        try:
+            sink = NetworkRecorder(rec, source, checked, connect=connect, listen=listen)
+        except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
+            rec.close()
+            if not existed:  # nothing was recorded: leave no empty file behind
+                out.unlink(missing_ok=True)
+            raise NetworkStartError(str(e)) from e
+        say(f"recording {', '.join(checked)} from {source} to {output}"
+            + (f" for {duration:g} s" if duration else " (Ctrl-C to stop)"))
+        while stopper.wait() and not rec.failed:
+            pass
+        sink.close()
+    finally:
+        s = rec.close()
+    return NetworkRecording(dict(s.written), s.dropped_total, sink.bad, rec.error)
