@@ -14,9 +14,13 @@ import logging
 import math
 import sys
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from .argtypes import number
 from ..badfile import FILE_ERRORS, reports_bad_files
+
+if TYPE_CHECKING:
+    from ..models.features import FeatureConfig
 log = logging.getLogger("fingertip")
 
 
@@ -80,6 +84,14 @@ def _split_line(split: dict) -> str:
             f"(no recording on both sides; per class in report.json)")
 
 
+def _features(args: argparse.Namespace) -> FeatureConfig:
+    """The feature configuration the train options ask for (the library's defaults else)."""
+    from ..models.features import FeatureConfig
+
+    kw = {} if args.mains_notch is None else {"mains_notch": args.mains_notch}
+    return FeatureConfig(canonical_rate=args.canonical_rate, **kw)
+
+
 @reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
@@ -90,12 +102,11 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
     from ..models.classify import json_safe
-    from ..models.features import FeatureConfig
     from ..models.material import train_material
 
     try:
         r = train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
-                           features=FeatureConfig(canonical_rate=args.canonical_rate),
+                           features=_features(args),
                            hidden=args.hidden, test_fraction=args.test_fraction,
                            seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
                            epochs=args.epochs, folds=args.folds, models=args.models,
@@ -156,13 +167,12 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
     from ..models.classify import json_safe
-    from ..models.features import FeatureConfig
     from ..models.shake import train_shake
 
     models = ("cnn", "mlp") if args.model == "both" else (args.model,)
     try:
         r = train_shake(args.folder, args.out, models=models, step_s=args.step,
-                        features=FeatureConfig(canonical_rate=args.canonical_rate),
+                        features=_features(args),
                         test_fraction=args.test_fraction, seed=args.seed,
                         rate_hint=args.rate_hint, max_hz=args.max_hz,
                         cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
@@ -392,6 +402,10 @@ def add_parsers(sub) -> None:
                        metavar="HZ", help="recordings above this rate are resampled to it "
                                           "(default 16000: bands up to 7.2 kHz, portable to "
                                           "any sensor at 16 kHz or more)")
+        p.add_argument("--mains-notch", action=argparse.BooleanOptionalAction,
+                       help="notch out (or not) stationary 50/60 Hz mains lines found in "
+                            "each recording before the features, in training and at run "
+                            "time (default: docs/classifiers.md, 'Mains hum')")
         p.add_argument("--seed", type=int, default=0, help="seed of the split and the "
                                                           "training (default 0)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")
