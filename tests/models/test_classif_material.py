@@ -185,11 +185,13 @@ def test_live_stream_matches_the_file(data, trained):
 
 def test_command_line(data, tmp_path, capsys, caplog):
     out = tmp_path / "m"
-    assert cli(["train", "material", str(data / "8k"), "-o", str(out), "--folds", "2"]) == 0
+    assert cli(["train", "material", str(data / "8k"), "-o", str(out), "--folds", "2",
+                "--mains-notch"]) == 0
     text = capsys.readouterr().out
     assert "2-fold cross-validation by recording" in text
     assert "candidates" in text and "baseline" in text and "chosen: " in text
     model = out / "material.onnx"
+    assert VibrationClassifier(model).cfg.mains_notch  # the runtime notches as training did
     f = data / "8k" / "plush_fabric" / "plush_fabric_01.wav"
     assert cli(["classify", "material", str(model), str(f), "--json"]) == 0
     lines = [json.loads(v) for v in capsys.readouterr().out.splitlines()]

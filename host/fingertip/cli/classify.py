@@ -14,10 +14,13 @@ import logging
 import math
 import sys
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .argtypes import number
 from ..badfile import FILE_ERRORS, reports_bad_files
+
+if TYPE_CHECKING:
+    from ..models.features import FeatureConfig
 log = logging.getLogger("fingertip")
 
 
@@ -50,6 +53,14 @@ def _user_errors():
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
+def _features(args: argparse.Namespace) -> FeatureConfig:
+    """The feature configuration the train options ask for (the library's defaults else)."""
+    from ..models.features import FeatureConfig
+
+    kw = {} if args.mains_notch is None else {"mains_notch": args.mains_notch}
+    return FeatureConfig(canonical_rate=args.canonical_rate, **kw)
+
+
 @reports_bad_files
 def _cmd_train_material(args: argparse.Namespace) -> int:
     """Train a material classifier on FOLDER (one sub-folder per class of WAV, FLAC or CSV
@@ -59,13 +70,12 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     logistic regression on log bands, an MLP) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
-    from ..models.features import FeatureConfig
     from ..models.classifier.report_text import material_summary_lines
     from ..models.material import train_material
 
     def train():
         return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
-                              features=FeatureConfig(canonical_rate=args.canonical_rate),
+                              features=_features(args),
                               hidden=args.hidden, test_fraction=args.test_fraction,
                               seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
                               epochs=args.epochs, folds=args.folds, models=args.models,
@@ -100,7 +110,6 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
-    from ..models.features import FeatureConfig
     from ..models.classifier.report_text import shake_summary_lines
     from ..models.shake import train_shake
 
@@ -108,7 +117,7 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
 
     def train():
         return train_shake(args.folder, args.out, models=models, step_s=args.step,
-                           features=FeatureConfig(canonical_rate=args.canonical_rate),
+                           features=_features(args),
                            test_fraction=args.test_fraction, seed=args.seed,
                            rate_hint=args.rate_hint, max_hz=args.max_hz,
                            cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
@@ -258,6 +267,10 @@ def add_parsers(sub) -> None:
                        metavar="HZ", help="recordings above this rate are resampled to it "
                                           "(default 16000: bands up to 7.2 kHz, portable to "
                                           "any sensor at 16 kHz or more)")
+        p.add_argument("--mains-notch", action=argparse.BooleanOptionalAction,
+                       help="notch out (or not) stationary 50/60 Hz mains lines found in "
+                            "each recording before the features, in training and at run "
+                            "time (default: docs/classifiers.md, 'Mains hum')")
         p.add_argument("--seed", type=int, default=0, help="seed of the split and the "
                                                           "training (default 0)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")

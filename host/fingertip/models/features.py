@@ -55,6 +55,8 @@ import scipy.fft
 from scipy.signal import resample_poly
 from scipy.signal.windows import hann
 
+from .mains import remove_mains
+
 log = logging.getLogger(__name__)
 
 CANONICAL_RATE = 16_000
@@ -98,6 +100,10 @@ class FeatureConfig:
     scale: str = "log"
     """Band spacing: ``log`` (geometric centres) or ``linear`` (equal widths: with about one
     band per FFT bin, the plain log spectrum of the baseline classifier)."""
+    mains_notch: bool = False
+    """Notch out stationary 50/60 Hz lines found in each recording's own spectrum before
+    the spectrogram (:mod:`fingertip.models.mains`). Models saved before this option existed
+    load with it off (:meth:`from_dict`)."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -168,7 +174,9 @@ class FeatureConfig:
     @classmethod
     def from_dict(cls, d: dict) -> FeatureConfig:
         known = {f for f in cls.__dataclass_fields__}
-        return cls(**{k: v for k, v in d.items() if k in known})
+        kw = {k: v for k, v in d.items() if k in known}
+        kw.setdefault("mains_notch", False)  # older models were trained without the notch
+        return cls(**kw)
 
 
 def check_rate(rate: float, what: str = "the recording") -> float:
@@ -550,6 +558,8 @@ class Spectrogrammer:
         if x.ndim != 1:
             raise FeatureError(f"{what}: samples must be 1-D, not {x.shape}")
         check_finite(x, what, rate)
+        if self.cfg.mains_notch:  # at the recording's own rate: finest lines, fewest samples
+            x = remove_mains(x, rate)
         y, r = to_working_rate(x, rate, self.cfg.canonical_rate)
         return self.stft(r).band_power(y)
 
