@@ -23,6 +23,7 @@ import numpy as np
 
 from ..reference import ReferenceError, ReferenceSamples
 from .align import Alignment, AlignmentError, Joined, estimate_offset, join
+from .figures import pyplot, save_png
 from .calibrate import (
     CHANNELS,
     CalibrationReport,
@@ -176,12 +177,9 @@ def write_joined(joined: Joined, path: Path) -> None:
 def plot_report(data, model_path: Path, path: Path, split: str) -> Path:
     """Predicted against reference per axis (held-out rows marked), residuals over the
     run, and hysteresis loops (the strongest channel against the force along its face)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from .force import ForceModel
+
+    plt = pyplot()
 
     mode = split.split(":")[0] if split else "trial"
     _, te, _ = split_holdout(data, mode if mode in ("grid", "trial", "blocks") else "auto")
@@ -221,10 +219,7 @@ def plot_report(data, model_path: Path, path: Path, split: str) -> Path:
     a.set_title("hysteresis loops (loading and unloading)")
     a.legend(fontsize=8)
     a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=100)
 
 
 __all__ = ["Alignment", "AlignmentError", "DatasetFormatError", "FingertipRecording",

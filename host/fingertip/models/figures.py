@@ -18,12 +18,13 @@ def pyplot() -> Any:
     return plt
 
 
-def save_png(fig: Any, path: str | os.PathLike) -> Path:
-    """Lay out ``fig``, write it to ``path`` (making its folder) and close it, so that a
-    training run that draws many figures does not keep them all in memory."""
+def save_png(fig: Any, path: str | os.PathLike, dpi: float | None = None) -> Path:
+    """Lay out ``fig``, write it to ``path`` (making its folder) at ``dpi`` (the figure's
+    own by default) and close it, so that a training run that draws many figures does not
+    keep them all in memory."""
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    fig.savefig(path, dpi="figure" if dpi is None else dpi)
     pyplot().close(fig)
     return path

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...protocol import INT24_MAX, INT24_MIN
+from ..figures import pyplot, save_png
 from .data import CalibrationData
 from .evaluate import rmse
 from .limits import CHANNELS
@@ -108,10 +109,7 @@ class CalibrationReport:
 
 
 def _plot(report: CalibrationReport, path: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     has_h = bool(report.models[0].by_height)
     fig, axes = plt.subplots(1, 2 if has_h else 1, figsize=(11 if has_h else 6, 4.2),
@@ -146,10 +144,7 @@ def _plot(report: CalibrationReport, path: Path) -> Path:
         ax2.set_title("error by contact height")
         ax2.grid(alpha=0.3)
         ax2.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_png(fig, path, dpi=110)
 
 
 def model_metadata(model, data: CalibrationData, train: CalibrationData, *,
