@@ -84,3 +84,11 @@ def test_stream_live_plot_to_png_and_no_display_error(port, tmp_path):
     r = subprocess.run([EXE, "stream", "--port", port, "--count", "1", "--plot"],
                        capture_output=True, text=True, timeout=30, env=env)
     assert r.returncode == 2 and "--plot-png" in r.stderr
+
+
+def test_stream_sets_rate_and_gain(port):
+    r = run("stream", "--port", port, "--count", "3", "--json", "--rate", "10", "--gain", "32")
+    assert r.returncode == 0, r.stderr
+    assert len(r.stdout.splitlines()) == 3
+    info = json.loads(run("info", "--port", port, "--json").stdout)["info"]
+    assert info["rate_sps"] == 10 and info["gain"] == 32

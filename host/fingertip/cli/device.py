@@ -16,7 +16,7 @@ from ..hand_args import add_hand_args, hand_spec_from_args
 from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
 from ..transport import DeviceNotFound, TransportError, list_ports
 from .frame_text import frame_json, frame_line
-from .hand_stream import stream_hand
+from .hand_stream import apply_stream_settings, stream_hand
 
 log = logging.getLogger("fingertip")
 
@@ -183,10 +183,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
         elif plot is not None and len(plot.lines) != ft.channels:
             plot.close()
             plot = LivePlot(ft.channels, png=args.plot_png)
-        if args.rate or args.decimation:
-            ft.set_rate(args.rate or ft.info.rate_sps, args.decimation or 1)
-        if args.gain:
-            ft.set_gain(args.gain)
+        apply_stream_settings(ft, args)
         if args.tare:
             ft.tare(samples=args.tare)
         ft.start()

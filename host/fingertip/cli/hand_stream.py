@@ -14,6 +14,15 @@ from ..hand_args import HandSpec
 log = logging.getLogger("fingertip")
 
 
+def apply_stream_settings(dev, args: argparse.Namespace) -> None:
+    """What `stream` sets on a device before it starts: rate and decimation, gain (one
+    fingertip's device or each device of a hand)."""
+    if args.rate or args.decimation:
+        dev.set_rate(args.rate or dev.info.rate_sps, args.decimation or 1)
+    if args.gain:
+        dev.set_gain(args.gain)
+
+
 def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
     hand = spec.build()
     try:
@@ -24,10 +33,7 @@ def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
     try:
         devices = {id(hand.device(f)): hand.device(f) for f in hand.fingers}
         for dev in devices.values():
-            if args.rate or args.decimation:
-                dev.set_rate(args.rate or dev.info.rate_sps, args.decimation or 1)
-            if args.gain:
-                dev.set_gain(args.gain)
+            apply_stream_settings(dev, args)
         if args.tare:
             hand.tare(samples=args.tare)
         hand.start()
