@@ -96,17 +96,17 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
             _event(feed, rec, name, "start")
     say(f"publishing {', '.join(names)} over {s.transport_name}"
         + (f" for {s.duration:g} s" if s.duration else " (Ctrl-C to stop)"))
-    stopper = Stopper(s.duration)
     reconnects = {n: getattr(src.stats, "reconnects", 0)
                   for src, n in zip(sources, names, strict=True)}
-    while stopper.wait():
-        if s.replay and sources[0].ended:
-            break
-        for src, name in zip(sources, names, strict=True):
-            r = getattr(src.stats, "reconnects", 0)
-            if r != reconnects[name]:
-                reconnects[name] = r
-                _event(feed, rec, name, "reconnect", float(r))
+    with Stopper(s.duration) as stopper:
+        while stopper.wait():
+            if s.replay and sources[0].ended:
+                break
+            for src, name in zip(sources, names, strict=True):
+                r = getattr(src.stats, "reconnects", 0)
+                if r != reconnects[name]:
+                    reconnects[name] = r
+                    _event(feed, rec, name, "reconnect", float(r))
     for src, name in zip(sources, names, strict=True):
         with contextlib.suppress(FingertipError):
             src.stop()

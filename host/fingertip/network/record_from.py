@@ -47,26 +47,27 @@ def record_network(source: str, names: str, output: str | Path, *,
     is missing, ValueError or :class:`~fingertip.record.recorder.RecorderError` for a bad
     name or file, and :class:`NetworkStartError` when the network cannot start (then no new
     empty file is left behind)."""
-    stopper = Stopper(duration)  # a SIGTERM while starting still ends cleanly
-    require(SOURCE_MODULES[source], f"record --from {source}")
-    out = Path(output)
-    existed = out.exists()
-    checked = [check_name(s.strip()) for s in names.split(",")]
-    rec = Recorder(out, flush_interval=flush_interval, flush_bytes=flush_bytes,
-                   compression=compression, overwrite=overwrite, fsync=fsync).start()
-    try:
+    # A SIGTERM while starting still ends cleanly; the caller's handler is back after.
+    with Stopper(duration) as stopper:
+        require(SOURCE_MODULES[source], f"record --from {source}")
+        out = Path(output)
+        existed = out.exists()
+        checked = [check_name(s.strip()) for s in names.split(",")]
+        rec = Recorder(out, flush_interval=flush_interval, flush_bytes=flush_bytes,
+                       compression=compression, overwrite=overwrite, fsync=fsync).start()
         try:
-            sink = NetworkRecorder(rec, source, checked, connect=connect, listen=listen)
-        except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
-            rec.close()
-            if not existed:  # nothing was recorded: leave no empty file behind
-                out.unlink(missing_ok=True)
-            raise NetworkStartError(str(e)) from e
-        say(f"recording {', '.join(checked)} from {source} to {output}"
-            + (f" for {duration:g} s" if duration else " (Ctrl-C to stop)"))
-        while stopper.wait() and not rec.failed:
-            pass
-        sink.close()
-    finally:
-        s = rec.close()
-    return NetworkRecording(dict(s.written), s.dropped_total, sink.bad, rec.error)
+            try:
+                sink = NetworkRecorder(rec, source, checked, connect=connect, listen=listen)
+            except Exception as e:  # DDS or Zenoh that cannot start (bad settings...)
+                rec.close()
+                if not existed:  # nothing was recorded: leave no empty file behind
+                    out.unlink(missing_ok=True)
+                raise NetworkStartError(str(e)) from e
+            say(f"recording {', '.join(checked)} from {source} to {output}"
+                + (f" for {duration:g} s" if duration else " (Ctrl-C to stop)"))
+            while stopper.wait() and not rec.failed:
+                pass
+            sink.close()
+        finally:
+            s = rec.close()
+        return NetworkRecording(dict(s.written), s.dropped_total, sink.bad, rec.error)
