@@ -88,6 +88,11 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
     if audio is None:
         return [_r("piezo", SKIP, "no sound card", "", fix="")]
     x = np.asarray(audio, dtype=np.float64).reshape(-1)
+    # A card's first buffers are often zero-filled before its stream runs: digital silence
+    # is not the piezo at rest, and it would dilute the hum and floor measured below.
+    lead = int(np.argmax(x != 0.0)) if np.any(x != 0.0) else 0
+    x = x[lead:]
+    t0 = t0 + lead / fs
     out = []
     st = PASS if int(round(fs)) in L.AUDIO_RATES else WARN
     out.append(_r("sound card", st, f"{name} at {fs:.0f} Hz",
@@ -108,13 +113,16 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
                   f">= {L.AUDIO_FLOOR_MIN_DBFS:g} dBFS", None, "",
                   "the card hears only itself: is the piezo's cable plugged into the "
                   "preamp and the preamp into the card's microphone input?", dbfs=dbfs(floor)))
-    h, mains = hum_rms(rest, fs)
+    # Hum and broadband floor over the same samples, so that their ratio does not depend on
+    # the span. The high-pass filter starts from rest while the hum is already there: skip
+    # its start-up.
+    settle = min(int(HP_SETTLE_S * fs), len(rest) // 2)
+    h, mains = hum_rms(rest[settle:], fs)
     hd = dbfs(h)
     # Broadband floor above the hum, scaled to the whole band (white noise).
     hp = highpass(x, fs)
     band = fs / 2
-    # The filter starts from rest while the hum is already there: skip its start-up.
-    hp_rest = hp[min(int(HP_SETTLE_S * fs), len(rest) // 2):len(rest)]
+    hp_rest = hp[settle:len(rest)]
     broad = float(np.sqrt(np.mean(hp_rest ** 2) * band / (band - HP_HZ)))
     over = hd - dbfs(broad)
     # A preamp with too much gain raises hum and floor alike (a level warning); a ground
