@@ -197,16 +197,20 @@ DESCRIPTION = {
     "force_rmse_ratio_vs_paper_method": ("our force RMSE over the paper method's, same units, "
                                          "same test rows (whole trials held out)", ("<=", 0.7)),
     "sim_ours_retared_force_mse_n2": (
-        "ours with the counts re-tared at rest before each trial's contact (N^2)", None),
+        "ours with the counts re-tared at rest before each trial's contact (N^2, per "
+        "component)", None),
     "sim_paper_method_force_mse_n2_random_split": (
-        "paper's method on a random 80/20 split of the readings instead (N^2)", None),
-    "sim_ours_force_mse_n2_random_split": ("ours on that random split (N^2)", None),
+        "paper's method on a random 80/20 split of the readings instead (N^2, per component)",
+        None),
+    "sim_ours_force_mse_n2_random_split": ("ours on that random split (N^2, per component)",
+                                           None),
     "force_rmse_ratio_vs_paper_method_random_split": (
         "our RMSE over the paper method's on the random split of readings", None),
     "ideal_sensor_paper_method_force_mse_n2": (
         "ideal sensor (unit spread and HX711 white noise only: the earlier simulator): "
-        "paper's method, whole trials held out (N^2)", None),
-    "ideal_sensor_ours_force_mse_n2": ("ideal sensor: ours, same split (N^2)", None),
+        "paper's method, whole trials held out (N^2, per component)", None),
+    "ideal_sensor_ours_force_mse_n2": ("ideal sensor: ours, same split (N^2, per component)",
+                                       None),
     "sim_paper_method_material_accuracy": (
         "the paper's material method (STFT, 86-frame windows, MLP, random split of windows) on "
         f"7 x 100 simulated slides (paper {PAPER_MATERIAL_ACCURACY})",
@@ -242,7 +246,7 @@ DESCRIPTION = {
 }
 for _n in Realism.sources():
     DESCRIPTION[f"ablation_force_mse_without_{_n}"] = (
-        f"paper's force method, every error source but {_n} (N^2)", None)
+        f"paper's force method, every error source but {_n} (N^2, per component)", None)
 
 
 def tables(r: dict[str, float]) -> dict[str, str]:
@@ -251,7 +255,8 @@ def tables(r: dict[str, float]) -> dict[str, str]:
     none = r.get("ideal_sensor_paper_method_force_mse_n2")
     if allp is None or none is None:
         return {}
-    rows = ["| source | MSE without it (N^2) | all minus without |", "|---|---|---|"]
+    rows = ["| source | MSE without it (N^2, per component) | all minus without |",
+            "|---|---|---|"]
     for n in Realism.sources():
         w = r.get(f"ablation_force_mse_without_{n}")
         if w is not None:
