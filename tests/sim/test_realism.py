@@ -308,3 +308,15 @@ def test_paper_task_votes_train_once_vote_per_box():
     assert r.per_box == {"screws": (1, 1), "rubber_bands": (1, 2)}
     assert r.success == pytest.approx(2 / 3)
     assert r.window_accuracy == pytest.approx(2 / 3)               # one window each
+
+
+def test_compare_force_reads_the_mse_as_the_paper_does():
+    """The paper's reading (per component) is the default, and it is half the vector form on
+    the same predictions (the same session and the same seeded MLP)."""
+    from fingertip.sim.paper_method import PAPER_MSE_PER_COMPONENT, compare_force
+
+    assert PAPER_MSE_PER_COMPONENT
+    per = compare_force(1, Realism.ideal(), ours=False)
+    vec = compare_force(1, Realism.ideal(), ours=False, per_component=False)
+    assert per.paper_mse_n2 == pytest.approx(vec.paper_mse_n2 / 2, rel=1e-9)
+    assert 0 < per.paper_mse_n2 < 0.2
