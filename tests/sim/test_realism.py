@@ -8,11 +8,14 @@ import pytest
 
 from fingertip.sim.paper_method import (
     PAPER_SPLIT,
+    TaskShakes,
     mse,
     paper_force_model,
+    paper_task_votes,
     paper_votes,
     random_split,
     spectrogram,
+    task_shakes,
     trial_split,
     windows,
     WINDOW_FRAMES,
@@ -253,3 +256,67 @@ def test_paper_votes_one_vote_per_held_out_recording():
     assert r.window_accuracy == pytest.approx(11 / 12)      # one window each
     with pytest.raises(ValueError):
         paper_votes(xs[:3], np.array(ys[:3]), ["a", "b", "c"], folds=5)
+
+
+def test_task_shakes_vary_as_the_task_scene():
+    """The task's test shakes: boxes only, the scene's fill and amplitude, and a microphone
+    gain and mains drawn per shake within the task scene's ranges (off: the file's)."""
+    from fingertip.sim.dataset import TASK_MAINS_HZ, TASK_PREAMP_GAIN
+    from fingertip.sim.physics import load
+
+    classes = ["empty", "rubber_bands", "screws"]
+    t = task_shakes(classes, 3, seed=5)
+    assert sorted(t.labels.tolist()) == [1, 1, 1, 2, 2, 2]
+    base = load().preamp.gain
+    lo, hi = TASK_PREAMP_GAIN
+    assert np.all((t.preamp_gain >= base * lo) & (t.preamp_gain <= base * hi))
+    assert set(t.mains_hz.tolist()) <= set(TASK_MAINS_HZ)
+    assert len(set(t.preamp_gain.tolist())) == 6                 # one draw per shake
+    assert all(len(x) >= int(5.6 * 44100) for x in t.recordings)
+    again = task_shakes(classes, 3, seed=5)
+    assert all(np.array_equal(a, b) for a, b in zip(t.recordings, again.recordings, strict=True))
+    quiet = task_shakes(classes, 3, seed=5, microphone=False)
+    assert np.all(quiet.preamp_gain == base)
+    assert np.all(quiet.mains_hz == load().mains.frequency_hz)
+    # the same scenes (fill, grip, amplitude) at another gain: louder where the gain is higher
+    louder = t.preamp_gain > base * 1.1
+    rms = [float(np.sqrt(np.mean(x ** 2))) for x in t.recordings]
+    rms_q = [float(np.sqrt(np.mean(x ** 2))) for x in quiet.recordings]
+    assert louder.any()
+    assert all(a > b for a, b, up in zip(rms, rms_q, louder, strict=True) if up)
+    with pytest.raises(ValueError, match="lack the boxes"):
+        task_shakes(["empty", "screws"], 1)
+
+
+def test_paper_task_votes_train_once_vote_per_box():
+    """Tones: trained once on the collection, one vote per test shake; a rubber-band shake
+    that sounds like screws is a miss of that box only."""
+    fs = 44100
+    t = np.arange(fs // 2) / fs
+    rng = np.random.default_rng(1)
+    freqs = {"empty": 14000.0, "rubber_bands": 1000.0, "screws": 6000.0}
+    classes = sorted(freqs)
+
+    def tone(f):
+        return np.sin(2 * math.pi * f * t) + 0.01 * rng.standard_normal(len(t))
+
+    xs = [tone(freqs[c]) for c in classes for _ in range(4)]
+    ys = np.repeat(np.arange(3), 4)
+    test_x = [tone(freqs["screws"]), tone(freqs["rubber_bands"]), tone(freqs["screws"])]
+    test = TaskShakes(test_x, np.array([2, 1, 1]), np.ones(3), np.full(3, 50.0))
+    r = paper_task_votes((xs, ys, classes), test, epochs=30)
+    assert r.per_box == {"screws": (1, 1), "rubber_bands": (1, 2)}
+    assert r.success == pytest.approx(2 / 3)
+    assert r.window_accuracy == pytest.approx(2 / 3)               # one window each
+
+
+def test_compare_force_reads_the_mse_as_the_paper_does():
+    """The paper's reading (per component) is the default, and it is half the vector form on
+    the same predictions (the same session and the same seeded MLP)."""
+    from fingertip.sim.paper_method import PAPER_MSE_PER_COMPONENT, compare_force
+
+    assert PAPER_MSE_PER_COMPONENT
+    per = compare_force(1, Realism.ideal(), ours=False)
+    vec = compare_force(1, Realism.ideal(), ours=False, per_component=False)
+    assert per.paper_mse_n2 == pytest.approx(vec.paper_mse_n2 / 2, rel=1e-9)
+    assert 0 < per.paper_mse_n2 < 0.2

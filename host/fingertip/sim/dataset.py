@@ -63,6 +63,10 @@ TASK_BOX_ITEMS = {"screws": (5, 12), "rubber_bands": (6, 14), "empty": (0, 0)}
 """Items per box in the shake-and-pick scene (inclusive; sim/world/boxes draws from these)."""
 TASK_AMPLITUDE_GAIN = (0.8, 1.05)
 """The simulated arm's real shake amplitude over the commanded one in that scene."""
+TASK_PREAMP_GAIN = (0.6, 1.5)
+"""The microphone's gain per trial in that scene, over the parameter file's preamp gain."""
+TASK_MAINS_HZ = (50.0, 60.0)
+"""The mains frequency a trial of that scene picks up (one of these)."""
 MIN_RATE_HZ, MAX_RATE_HZ = 1000, 192_000
 FORMATS = ("wav", "flac")
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dataset import TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS
+from ..dataset import TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS, TASK_MAINS_HZ, TASK_PREAMP_GAIN
 from ..physics import BoxShake, load
 from .hand import (
     FINGERS,
@@ -140,8 +140,8 @@ def make_box_world(seed: int, *, hand_seed: int = 100) -> tuple[BoxWorld, SimHan
         lo, hi = TASK_BOX_ITEMS[content]
         items = int(rng.integers(lo, hi + 1))
         boxes.append(Box(content, items, x, {f: float(rng.uniform(0.3, 1.3)) for f in FINGERS}))
-    chain = {"preamp_gain": load().preamp.gain * float(rng.uniform(0.6, 1.5)),
-             "mains_hz": float(rng.choice([50.0, 60.0]))}
+    chain = {"preamp_gain": load().preamp.gain * float(rng.uniform(*TASK_PREAMP_GAIN)),
+             "mains_hz": float(rng.choice(list(TASK_MAINS_HZ)))}
     world = BoxWorld(SimObject(box_spec(0), dict.fromkeys(FINGERS, NO_CONTACT_MM)), rng,
                      angles_deg={f: float(rng.uniform(-20, 20)) for f in FINGERS},
                      heights_mm={f: float(rng.uniform(1.0, 4.0)) for f in FINGERS},
