@@ -207,7 +207,11 @@ def run() -> dict[str, float]:
         ds = _cut(load_folder(root / "m8000"), 1.0)
         from fingertip.models.candidates import choose_setup
 
-        cand = candidates(choose_setup(ds), (r8.report["model"],))[0]
+        from fingertip.models.features import FeatureConfig
+
+        notch = bool(r8.report["mains_notch"]["adopted"])  # as the trainer chose
+        cand = candidates(choose_setup(ds, FeatureConfig(mains_notch=notch)),
+                          (r8.report["model"],))[0]
         aug = AugmentConfig() if r8.report["augmentation"]["adopted"] else NONE
         cw = candidate_windows(cand, ds, aug, SEED)  # as the trainer chose
         unk = [unknown_auroc(cand, cw, ds, c, 5, SEED) for c in ds.classes]
@@ -270,6 +274,14 @@ def public_sets(root: Path) -> dict[str, float]:
     return out
 
 
+def _notch_cell(rep: dict) -> str:
+    """The trainer's mains-notch decision in a table cell."""
+    n = rep.get("mains_notch", {})
+    if "mean_accuracy_with" not in n and "mean_accuracy_with_at_most" not in n:
+        return "not tried" if not n.get("adopted") else "on"
+    return ("on" if n["adopted"] else "off") + f" ({n.get('recordings_with_lines', 0)} with lines)"
+
+
 def tables(r: dict[str, float]) -> dict[str, str]:
     """Candidates by decision time (8 and 2.2 kHz, 1 s slides) and accuracy under shifts."""
     if not _LAST:
@@ -295,14 +307,14 @@ def tables(r: dict[str, float]) -> dict[str, str]:
     out["Material: accuracy when conditions change (model trained on 2 s slides at 8 kHz)"] \
         = "\n".join(rows)
     if "public" in _LAST:
-        rows = ["| set | classes | recordings | model | 0.25 s | whole |",
-                "|---|---|---|---|---|---|"]
+        rows = ["| set | classes | recordings | model | mains notch | 0.25 s | whole |",
+                "|---|---|---|---|---|---|---|"]
         for name, v in _LAST["public"].items():
             rep = v["report"]
             acc = rep["accuracy_by_time"]
             rows.append(f"| {name} | {len(rep['dataset']['classes'])} | "
                         f"{rep['summary']['test_recordings']} | {rep['model']} | "
-                        f"{100 * acc['0.25 s']['accuracy']:.1f} % | "
+                        f"{_notch_cell(rep)} | {100 * acc['0.25 s']['accuracy']:.1f} % | "
                         f"{100 * acc['whole']['accuracy']:.1f} % |")
         out["Material trainer on real hits (Debian hydrogen-drumkits, 5 folds, defaults)"] = \
             "\n".join(rows)
