@@ -1,6 +1,7 @@
-"""The material trainer's trial of the mains notch: tried only when recordings carry steady
+"""The material trainer's trial of the mains notch: tried when recordings carry steady
 mains lines, kept when the cross-validation says it costs nothing, refused when the hum is
-what tells the classes apart, and never tried when the user decided."""
+what tells the classes apart, kept without a trial when no recording has lines (it changes
+nothing then), and never tried when the user decided."""
 from __future__ import annotations
 
 import numpy as np
@@ -75,18 +76,23 @@ def test_hum_that_is_the_cue_is_kept(tmp_path):
     assert not VibrationClassifier(r.model_path).cfg.mains_notch
 
 
-def test_no_lines_no_trial_and_the_users_word_wins(tmp_path):
+def test_without_lines_the_notch_is_kept_for_free_and_the_users_word_wins(tmp_path):
+    """No recording carries lines: the notch changes none of them, so the model and its
+    answers are those without it; it is kept (it acts only on hum that comes later)."""
     data = _write(tmp_path / "d", {"low": ((200, 800), "none"),
                                    "high": ((1000, 3000), "none")})
     r = _train(data, tmp_path / "m")
-    assert r.report["mains_notch"]["recordings_with_lines"] == 0
-    assert not r.report["mains_notch"]["adopted"]
-    assert "nothing to notch" in r.report["mains_notch"]["why"]
-    assert not VibrationClassifier(r.model_path).cfg.mains_notch
+    notch = r.report["mains_notch"]
+    assert notch["recordings_with_lines"] == 0 and notch["adopted"]
+    assert "changes none of them" in notch["why"]
+    assert VibrationClassifier(r.model_path).cfg.mains_notch
+    off = _train(data, tmp_path / "off", mains_notch=False)
+    assert off.report["mains_notch"]["why"] == "off: asked (not tried)"
+    assert not VibrationClassifier(off.model_path).cfg.mains_notch
+    assert off.report["accuracy_by_time"] == r.report["accuracy_by_time"]
+    assert off.report["summary"]["temperature"] == r.report["summary"]["temperature"]
     hum = _write(tmp_path / "h", {"humming": ((60, 3900), "all"),
                                   "quiet": ((60, 3900), "none")})
     forced = _train(hum, tmp_path / "on", mains_notch=True)
     assert forced.report["mains_notch"]["why"] == "on: asked (not tried)"
     assert VibrationClassifier(forced.model_path).cfg.mains_notch
-    off = _train(data, tmp_path / "off", mains_notch=False)
-    assert off.report["mains_notch"]["why"] == "off: asked (not tried)"

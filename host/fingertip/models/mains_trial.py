@@ -10,8 +10,9 @@ reference is worth more than the robustness is a property of the data, so the tr
 the data: when some training recording carries steady mains lines, the chosen candidate is
 cross-validated again with the notch on the same folds, and the notch is kept when the
 mean accuracy over the decision times is at least what it was without (a tie keeps it:
-same accuracy, more robust). When no recording carries lines the notch would change
-nothing, and is not tried.
+same accuracy, more robust). When no recording carries lines, the notch changes no
+training recording (same features, same model), so it is kept without a trial: it costs
+nothing on the user's data and acts only when hum appears later.
 """
 from __future__ import annotations
 
@@ -47,12 +48,13 @@ def recordings_with_lines(ds: Dataset) -> list[int]:
 
 
 def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarray,
-                    folds: list[np.ndarray], clean: dict[int, Answers], seed: int,
-                    hidden: tuple[int, ...], epochs: int
+                    folds: list[np.ndarray], clean: dict[int, Answers],
+                    cw_clean: CandidateWindows, seed: int, hidden: tuple[int, ...],
+                    epochs: int
                     ) -> tuple[dict, tuple[Candidate, Setup, CandidateWindows,
                                            dict[int, Answers]] | None]:
-    """Cross-validate ``cand`` again with the notch (``clean``: its out-of-fold answers
-    without, on the same ``folds``).
+    """Cross-validate ``cand`` again with the notch (``clean`` and ``cw_clean``: its
+    out-of-fold answers and its windows without, on the same ``folds``).
 
     Returns the report's entry and, when the notch is adopted, the notched candidate, the
     setup, its windows and its out-of-fold answers (None otherwise). The folds stop early
@@ -64,16 +66,22 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
                  "it is at least that without"}
     with_lines = recordings_with_lines(ds)
     out["recordings_with_lines"] = len(with_lines)
+    notched_setup = replace(setup, cfg=replace(setup.cfg, mains_notch=True))
+    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
     if not with_lines:
-        out["why"] = "no training recording carries steady mains lines: nothing to notch"
+        # the notch leaves every training recording as it is: the same windows, the same
+        # answers; what changes is only what the model does with hum at run time
+        out.update(adopted=True, why="no training recording carries steady mains lines: "
+                   "the notch changes none of them, kept without a trial (it acts only on "
+                   "hum that appears later)")
         out["seconds"] = round(time.perf_counter() - t0, 3)
-        return out, None
+        log.info("%s", out["why"])
+        notched.last, notched.last_fit_s = cand.last, cand.last_fit_s  # the same model
+        return out, (notched, notched_setup, cw_clean, clean)
     if not folds or not math.isfinite(base):
         out["why"] = "too few recordings to cross-validate it"
         out["seconds"] = round(time.perf_counter() - t0, 3)
         return out, None
-    notched_setup = replace(setup, cfg=replace(setup.cfg, mains_notch=True))
-    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
     cw = candidate_windows(notched, ds)
     stopped: list[int] = []
 

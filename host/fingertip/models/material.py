@@ -206,7 +206,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     t0 = time.perf_counter()
     if mains_notch is None:
         notch_report, won = try_mains_notch(cand, setup, ds, labels, sel_folds, oof[chosen],
-                                            seed, hidden, epochs)
+                                            cws[chosen], seed, hidden, epochs)
         if won is not None:
             notched, setup, cws[chosen], oof[chosen] = won
             cands[cands.index(cand)] = cand = notched
