@@ -58,12 +58,13 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
 
     Returns the report's entry and, when the notch is adopted, the notched candidate, the
     setup, its windows and its out-of-fold answers (None otherwise). The folds stop early
-    once even right answers on every recording left could not reach ``base``."""
+    once even right answers on every recording left could not reach the accuracy without."""
     t0 = time.perf_counter()
     base = mean_accuracy(accuracy_by_time(clean, labels)) if clean else math.nan
     out: dict = {"adopted": False, "rule": "tried when some training recording carries "
                  "steady mains lines; adopted when the cross-validated mean accuracy with "
-                 "it is at least that without"}
+                 "it is at least that without; kept without a trial when no recording "
+                 "carries lines (it changes none of them)"}
     with_lines = recordings_with_lines(ds)
     out["recordings_with_lines"] = len(with_lines)
     notched_setup = replace(setup, cfg=replace(setup.cfg, mains_notch=True))

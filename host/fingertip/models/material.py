@@ -210,9 +210,11 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         if won is not None:
             notched, setup, cws[chosen], oof[chosen] = won
             cands[cands.index(cand)] = cand = notched
-            table = accuracy_by_time(oof[chosen], labels)
-            results[chosen].update(accuracy_by_time=table, mean_accuracy=mean_accuracy(table),
-                                   mains_notch=True)
+            results[chosen]["mains_notch"] = True
+            if oof[chosen]:  # no cross-validation (too few recordings): nothing to score
+                table = accuracy_by_time(oof[chosen], labels)
+                results[chosen].update(accuracy_by_time=table,
+                                       mean_accuracy=mean_accuracy(table))
     else:
         notch_report = {"adopted": mains_notch,
                         "why": f"{'on' if mains_notch else 'off'}: asked (not tried)"}
