@@ -27,19 +27,17 @@ SHIFTS = ("held-out (new slides)", "mains hum x3", "mains hum x10", "motor noise
 def one(root: Path, notch: bool, real: bool) -> dict:
     """Accuracies (whole recording) with the notch ``notch``, on the sets under ``root``."""
     from fingertip.models.classify import load_folder
-    from fingertip.models.features import FeatureConfig
     from fingertip.models.material import train_material
 
-    f = FeatureConfig(mains_notch=notch)
     o: dict = {}
     t0 = time.perf_counter()
     for rate in (8000, 2200):
         r = train_material(bv._cut(load_folder(root / f"m{rate}"), 1.0),
                            root / f"r{rate}_{notch}", folds=5, seed=bv.SEED, plot=False,
-                           features=f).report
+                           mains_notch=notch).report
         o[f"first second, {rate} Hz"] = r["accuracy_by_time"]["whole"]["accuracy"]
     full = train_material(root / "m8000", root / f"full_{notch}", folds=5, seed=bv.SEED,
-                          plot=False, features=f)
+                          plot=False, mains_notch=notch)
     o["2 s slides, 8 kHz"] = full.report["accuracy_by_time"]["whole"]["accuracy"]
     kept = {k: bv.SHIFTS[k] for k in SHIFTS}
     saved = dict(bv.SHIFTS)
@@ -54,7 +52,7 @@ def one(root: Path, notch: bool, real: bool) -> dict:
     if real:
         for name in ("knocks", "drums"):
             r = train_material(root / name, root / f"{name}_{notch}", folds=5, seed=bv.SEED,
-                               plot=False, features=f).report["accuracy_by_time"]
+                               plot=False, mains_notch=notch).report["accuracy_by_time"]
             o[f"real {name}"] = r["whole"]["accuracy"]
             o[f"real {name}, 0.25 s"] = r["0.25 s"]["accuracy"]
     o["seconds"] = round(time.perf_counter() - t0, 1)

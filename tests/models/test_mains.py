@@ -103,3 +103,19 @@ def test_training_and_runtime_pipelines_agree():
     b = FeaturePipeline(FeatureConfig.from_dict(json.loads(json.dumps(cfg.to_dict()))),
                         spec).windows(rec).inputs
     np.testing.assert_array_equal(a, b)
+
+
+def test_a_struck_tone_that_decays_is_not_taken_for_hum():
+    """A kick drum's ring: partials at 50, 100 and 150 Hz decaying over the recording. They
+    stand far above their neighbours in the long-term spectrum, but they are not steady,
+    so they are content; the same partials held steady are taken for the grid."""
+    x = texture(1.0)
+    t = np.arange(len(x)) / RATE
+    partials = sum(a * np.sin(2 * np.pi * f * t) for f, a in ((50, 1.0), (100, 0.6),
+                                                              (150, 0.4)))
+    ring = partials * np.exp(-t / 0.15) * 20 * np.std(x)
+    assert find_mains_lines(x + ring, RATE) == []
+    assert np.array_equal(remove_mains(x + ring, RATE), x + ring)
+    held = partials * 3 * np.std(x)
+    lines = find_mains_lines(x + held, RATE)
+    assert any(abs(v - 50) < 1.0 for v in lines), lines

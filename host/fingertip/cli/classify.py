@@ -53,11 +53,12 @@ def _user_errors():
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
-def _features(args: argparse.Namespace) -> FeatureConfig:
-    """The feature configuration the train options ask for (the library's defaults else)."""
+def _features(args: argparse.Namespace, notch: bool = True) -> FeatureConfig:
+    """The feature configuration the train options ask for (the library's defaults else);
+    ``notch``: whether it carries ``--mains-notch`` (the material trainer takes it apart)."""
     from ..models.features import FeatureConfig
 
-    kw = {} if args.mains_notch is None else {"mains_notch": args.mains_notch}
+    kw = {} if args.mains_notch is None or not notch else {"mains_notch": args.mains_notch}
     return FeatureConfig(canonical_rate=args.canonical_rate, **kw)
 
 
@@ -75,7 +76,8 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
 
     def train():
         return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
-                              features=_features(args),
+                              features=_features(args, notch=False),
+                              mains_notch=args.mains_notch,
                               hidden=args.hidden, test_fraction=args.test_fraction,
                               seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
                               epochs=args.epochs, folds=args.folds, models=args.models,
@@ -268,9 +270,11 @@ def add_parsers(sub) -> None:
                                           "(default 16000: bands up to 7.2 kHz, portable to "
                                           "any sensor at 16 kHz or more)")
         p.add_argument("--mains-notch", action=argparse.BooleanOptionalAction,
-                       help="notch out (or not) stationary 50/60 Hz mains lines found in "
+                       help="notch out (or not) steady 50/60 Hz mains lines found in "
                             "each recording before the features, in training and at run "
-                            "time (default: docs/classifiers.md, 'Mains hum')")
+                            "time (default: material: tried by cross-validation when "
+                            "recordings carry lines, kept when it costs no accuracy; "
+                            "shake: off; docs/classifiers.md, 'Mains hum')")
         p.add_argument("--seed", type=int, default=0, help="seed of the split and the "
                                                           "training (default 0)")
         p.add_argument("--json", action="store_true", help="print the report as JSON")

@@ -3,10 +3,13 @@ long-term spectrum and notched out of its samples before any feature is computed
 
 A line is a bin of the recording's Welch spectrum (about 2 Hz resolution) that stands
 ``LINE_DB`` or more above the median of its neighbours, within a tolerance of ``k x 50`` or
-``k x 60`` Hz. A family (50 or 60 Hz) is removed only when its **fundamental** is such a
-line: pick-up from the grid always carries the fundamental, while a material's own tone
-(a resonance at 150 Hz and its overtones at 300, 450 Hz) sits on multiples of 50 Hz
-without one at 50 Hz, and must stay. Every line of an accepted family is then removed by a
+``k x 60`` Hz, and that is **steady**: its power in each Welch segment stays within
+``STEADY_DB`` of the others. Pick-up from the grid lasts as long as the recording, while an
+impact's tone (a kick drum rings near 50-60 Hz) decays within it and must stay. A family
+(50 or 60 Hz) is removed only when its **fundamental** is such a line: pick-up from the
+grid always carries the fundamental, while a material's own tone (a resonance at 150 Hz
+and its overtones at 300, 450 Hz) sits on multiples of 50 Hz without one at 50 Hz, and
+must stay. Every line of an accepted family is then removed by a
 narrow zero-phase IIR notch at the line's measured frequency.
 
 Pure numpy/scipy: the trainer and the runtime call the same function through
@@ -23,7 +26,8 @@ log = logging.getLogger(__name__)
 
 MAINS_HZ = (50.0, 60.0)
 RESOLUTION_HZ = 2.0
-"""Target bin width of the long-term spectrum (Welch segments of 0.5 s)."""
+"""Target bin width of the long-term spectrum (Welch segments of 0.5 s, shorter for
+recordings under 1 s: at least three half-overlapping segments)."""
 COARSEST_HZ = 10.0
 """Recordings too short for this resolution are left alone: a 'line' would be 10 Hz wide
 and could be content."""
@@ -32,6 +36,10 @@ GRID_TOLERANCE = 0.005
 little more)."""
 LINE_DB = 15.0
 """How far above its neighbours' median a bin must stand to be a line."""
+STEADY_DB = 6.0
+"""How far a line's power may swing between the Welch segments (0.5 s, half overlapping)
+and still be a line: the grid's slow amplitude wander is about 1 dB; a struck object's
+tone loses more than this between its first and its last segment."""
 NEIGHBOUR_HZ = 25.0
 """Neighbours: the bins within this distance of a candidate, outside its own peak."""
 MAX_HARMONIC = 40
@@ -47,15 +55,18 @@ def find_mains_lines(x: np.ndarray, rate: float) -> list[float]:
     lines of every family (50 or 60 Hz) whose fundamental is a line; empty when the
     recording is too short to resolve lines."""
     x = np.asarray(x, dtype=np.float64)
-    nper = min(len(x), int(round(rate / RESOLUTION_HZ)))
+    # at least three half-overlapping segments, so that steadiness can be judged
+    nper = min(len(x) // 2, int(round(rate / RESOLUTION_HZ)))
     if nper < rate / COARSEST_HZ:
         return []
-    f, p = scipy.signal.welch(x, rate, window="hann", nperseg=nper, noverlap=nper // 2,
-                              detrend="constant")
+    f, _, seg = scipy.signal.spectrogram(x, rate, window="hann", nperseg=nper,
+                                         noverlap=nper // 2, detrend="constant",
+                                         scaling="density", mode="psd")
+    p = seg.mean(axis=1)  # Welch's average of the same segments
     df = float(f[1] - f[0])
     lines: list[float] = []
     for f0 in MAINS_HZ:
-        found = _family(f, p, df, f0, rate)
+        found = _family(f, p, seg, df, f0, rate)
         if found and found[0][0] == 1:
             lines.extend(fk for _, fk in found)
     # 300 Hz is the 6th of 50 and the 5th of 60: keep one notch per frequency
@@ -66,9 +77,10 @@ def find_mains_lines(x: np.ndarray, rate: float) -> list[float]:
     return out
 
 
-def _family(f: np.ndarray, p: np.ndarray, df: float, f0: float, rate: float
-            ) -> list[tuple[int, float]]:
-    """(harmonic number, measured frequency) of each line at a multiple of ``f0``."""
+def _family(f: np.ndarray, p: np.ndarray, seg: np.ndarray, df: float, f0: float,
+            rate: float) -> list[tuple[int, float]]:
+    """(harmonic number, measured frequency) of each steady line at a multiple of ``f0``
+    (``p``: the mean of the segments' spectra ``seg``, bins x segments)."""
     found = []
     gap = 3 * df  # a Hann peak's main lobe is 2 bins each side
     for k in range(1, MAX_HARMONIC + 1):
@@ -85,9 +97,15 @@ def _family(f: np.ndarray, p: np.ndarray, df: float, f0: float, rate: float
         if not len(neigh):
             continue
         med = float(np.median(neigh))
-        if p[i] > 0 and p[i] > med * 10 ** (LINE_DB / 10):
+        if p[i] > 0 and p[i] > med * 10 ** (LINE_DB / 10) and _steady(seg[i]):
             found.append((k, _refine(f, p, i, df)))
     return found
+
+
+def _steady(power: np.ndarray) -> bool:
+    """Whether a bin's power over the segments stays within :data:`STEADY_DB`."""
+    lo, hi = float(power.min()), float(power.max())
+    return lo > 0 and hi <= lo * 10 ** (STEADY_DB / 10)
 
 
 def _refine(f: np.ndarray, p: np.ndarray, i: int, df: float) -> float:

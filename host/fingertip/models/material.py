@@ -28,7 +28,7 @@ import math
 import os
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +79,7 @@ from .classify import (
 )
 from .features import FeatureConfig, as_recording
 from .figures import pyplot, save_png
+from .mains_trial import try_mains_notch
 from .reliability import apply_temperature, fit_temperature, plot_reliability
 
 log = logging.getLogger(__name__)
@@ -113,7 +114,8 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    kind: str = "material", plot: bool = True,
                    models: tuple[str, ...] = CANDIDATES,
                    augment: AugmentConfig | None = None,
-                   cnn_budget: float | None = None) -> TrainResult:
+                   cnn_budget: float | None = None,
+                   mains_notch: bool | None = None) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
@@ -130,6 +132,10 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     (:func:`~fingertip.models.candidates.cnn_work`, window-epochs) is at most this (inf: no
     limit; None: :data:`~fingertip.models.candidates.CNN_WORK_LIMIT`); a count from the
     data, so the same folder always gives the same candidates.
+    ``mains_notch``: notch steady mains lines out of every recording (:mod:`.mains`) or
+    not; None (the default): tried by cross-validation when some training recording
+    carries such lines, and kept when it costs no accuracy (:mod:`.mains_trial`).
+    ``features`` with ``mains_notch`` set turns it on as well.
     """
     augment = AugmentConfig() if augment is None else augment
     cnn_budget = CNN_WORK_LIMIT if cnn_budget is None else cnn_budget
@@ -137,6 +143,10 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         raise ValueError(f"cnn_budget must be > 0 window-epochs (inf: no limit), not "
                          f"{cnn_budget}")
     t_all = time.perf_counter()
+    if mains_notch is None and features is not None and features.mains_notch:
+        mains_notch = True
+    if mains_notch is not None:
+        features = replace(features or FeatureConfig(), mains_notch=mains_notch)
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
     setup = choose_setup(ds, features, max_hz, window_s, step_s)
     labels = ds.labels
@@ -193,6 +203,23 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     t_cv = time.perf_counter() - t_cv
     chosen, why = _choose(results, cands)
     cand = next(c for c in cands if c.name == chosen)
+    t0 = time.perf_counter()
+    if mains_notch is None:
+        notch_report, won = try_mains_notch(cand, setup, ds, labels, sel_folds, oof[chosen],
+                                            cws[chosen], seed, hidden, epochs)
+        if won is not None:
+            notched, setup, cws[chosen], oof[chosen] = won
+            cands[cands.index(cand)] = cand = notched
+            results[chosen]["mains_notch"] = True
+            if oof[chosen]:  # no cross-validation (too few recordings): nothing to score
+                table = accuracy_by_time(oof[chosen], labels)
+                results[chosen].update(accuracy_by_time=table,
+                                       mean_accuracy=mean_accuracy(table))
+    else:
+        notch_report = {"adopted": mains_notch,
+                        "why": f"{'on' if mains_notch else 'off'}: asked (not tried)"}
+    t_notch = time.perf_counter() - t0
+    t_cv += t_notch
     t0 = time.perf_counter()
     aug_report = _try_augmentation(cand, ds, augment, seed, labels, sel_folds, results, cws,
                                    oof)
@@ -264,7 +291,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    "frames": cand.pipe.spec.frames, "min_frames": cand.pipe.spec.min_frames,
                    "stats": list(cand.pipe.spec.stats)},
         "candidates": results, "candidates_skipped": skipped, "choice": why,
-        "augmentation": aug_report,
+        "augmentation": aug_report, "mains_notch": notch_report,
         "split": split, "seed": seed, "test_fraction": test_fraction if folds <= 1 else None,
         "evaluation": evaluation.to_dict(), "summary": summary,
         "accuracy_by_time": table, "decision_curve": curve,
@@ -280,7 +307,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                             "(out of fold, whole recording)"},
         "onnx_max_abs_diff_vs_float64": onnx_diff,
         "timing": {"features_s": round(sum(r["features_s"] for r in results.values()), 3),
-                   "augment_s": round(t_augment, 3),
+                   "augment_s": round(t_augment, 3), "mains_notch_s": round(t_notch, 3),
                    "cross_validation_s": round(t_cv, 3), "train_s": round(t_train, 3),
                    "total_s": round(time.perf_counter() - t_all, 3),
                    "latency_model_ms": results[chosen]["cost"]["latency_model_ms"],

@@ -68,6 +68,8 @@ def material_report_lines(rep: dict) -> list[str]:
     for name, why in rep.get("candidates_skipped", {}).items():
         out.append(f"  {name:<9}skipped: {why}")
     out.append(f"chosen: {rep['choice']}")
+    if "mains_notch" in rep:
+        out.append(f"mains notch: {rep['mains_notch']['why']}")
     if "augmentation" in rep:
         out.append(f"augmentation: {rep['augmentation']['why']}")
     ttd = rep["summary"]["time_to_decision"]
