@@ -68,6 +68,22 @@ class SerialStream:
             # TypeError/AttributeError: pyserial after the fd vanished under it.
             raise TransportClosed(f"{self.name}: {e}") from e
 
+    def read_ready(self, max_bytes: int = 4096) -> bytes:
+        """What has arrived, without waiting: for a caller that already waited on
+        :meth:`fileno` (one select for several ports) and was told it is readable, so the
+        second poll of :meth:`read` would only cost a system call."""
+        if self._fd is None:
+            return self.read(max_bytes, timeout=0)
+        try:
+            data = os.read(self._fd, max_bytes)
+        except BlockingIOError:
+            return b""
+        except (OSError, ValueError) as e:
+            raise TransportClosed(f"{self.name}: {e}") from e
+        if not data:  # readable but empty: the device is gone (USB unplugged, pty closed)
+            raise TransportClosed(f"{self.name}: the device disconnected")
+        return data
+
     def write(self, data: bytes) -> None:
         if not self._ser.is_open:
             raise TransportClosed(f"{self.name} is closed")
