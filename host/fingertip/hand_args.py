@@ -106,15 +106,22 @@ class HandSpec:
     def fingers(self) -> list[str]:
         return list(self.ports or self.groups or {})
 
-    def build(self, **kw) -> Hand:
-        """The (unopened) :class:`Hand`."""
+    def build(self, *, callbacks_only: bool = False, **kw) -> Hand:
+        """The (unopened) :class:`Hand`; ``kw`` go to each :class:`Fingertip` (e.g.
+        ``reader=SharedReader()``: every device read on one thread). ``callbacks_only``:
+        neither the hand nor its devices queue frames, for consumers that take them by
+        callback (``queue_size=0`` on both)."""
         from .device import Fingertip, Hand
 
+        if callbacks_only:
+            kw["queue_size"] = 0
+        hand_queue = {"queue_size": 0} if callbacks_only else {}
         if self.ports is not None:
-            return Hand({n: Fingertip(p, name=n, **kw) for n, p in self.ports.items()})
+            return Hand({n: Fingertip(p, name=n, **kw) for n, p in self.ports.items()},
+                        **hand_queue)
         dev = (Fingertip(serial_number=self.serial, name="hand", **kw) if self.serial
                else Fingertip(self.port, name="hand", **kw))
-        return Hand.split(dev, self.groups or {})
+        return Hand.split(dev, self.groups or {}, **hand_queue)
 
 
 def hand_spec_from_args(args: argparse.Namespace) -> HandSpec | None:

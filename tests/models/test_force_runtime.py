@@ -67,6 +67,22 @@ def test_round_trip(model_file, data):
     assert "ForceModel(" in repr(fm)
 
 
+def test_estimate_xyz_is_estimate_as_floats(model_file, data):
+    """The publisher's per-frame call gives exactly estimate()'s values (Python floats,
+    z = 0), for valid frames, saturated ones (NaN) and the wrong channel count (error)."""
+    fm = ForceModel(model_file[0])
+    for row in data.counts[:20]:
+        counts = tuple(int(v) for v in row)
+        got = fm.estimate_xyz(counts)
+        assert all(type(v) is float for v in got) and got[2] == 0.0
+        assert got[:2] == tuple(fm.estimate(counts).tolist())
+    sat = (8388607, 0, 0, 0)
+    fx, fy, fz = fm.estimate_xyz(sat)
+    assert np.isnan(fx) and np.isnan(fy) and fz == 0.0
+    with pytest.raises(ValueError, match="4 channels"):
+        fm.estimate_xyz((1, 2, 3))
+
+
 def test_invalid_inputs_are_flagged(model_file, data):
     fm = ForceModel(model_file[0])
     x = np.repeat(data.counts[100:101], 6, axis=0)

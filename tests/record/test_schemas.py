@@ -102,3 +102,20 @@ def test_topics_and_names():
             S.check_name(bad)
     with pytest.raises(ValueError):
         S.topic("index", "nope")
+
+
+@given(stamps, names, st.lists(st.integers(-2**23, 2**23 - 1), max_size=16),
+       st.binary(max_size=9), st.sampled_from(sorted(S.AUDIO_DTYPES)))
+def test_padded_encodings_are_the_plain_ones_zero_filled(stamp, frame_id, counts, data,
+                                                          enc_name):
+    """What DDS sends (padded to 4 bytes in the same pack) is the recorder's bytes plus
+    zeros, for every frame_id length and channel count (each makes its own layout)."""
+    msgs = [(S.encode_raw, S.RawMsg(stamp, frame_id, 7, 2**40 + 3, stamp // 2, tuple(counts),
+                                    1, 2)),
+            (S.encode_wrench, S.WrenchMsg(stamp, frame_id, (1.5, -2.0, 0.0))),
+            (S.encode_audio, S.AudioMsg(stamp, frame_id, 5, len(data), 1, 44100.0, 44099.5,
+                                        0, enc_name, data))]
+    for encode, m in msgs:
+        plain, padded = encode(m), encode(m, padded=True)
+        assert len(padded) % 4 == 0 and len(padded) - len(plain) < 4
+        assert padded == plain + b"\0" * (len(padded) - len(plain))

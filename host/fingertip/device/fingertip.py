@@ -608,7 +608,8 @@ class Fingertip(FrameSource):
         stream = self._stream
         if stream is None:
             return
-        data = stream.read(4096, timeout=0)
+        ready = getattr(stream, "read_ready", None)
+        data = ready(4096) if ready is not None else stream.read(4096, timeout=0)
         if data:
             self._handle_bytes(data, time.monotonic())
 

@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from ..protocol import MAX_CHANNELS
-from .fingertip import Fingertip, Frame, NotConnected, check_tare_samples
+from .fingertip import Fingertip, FingertipError, Frame, NotConnected, check_tare_samples
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,7 +23,10 @@ class FingerFrame:
 
 class Hand:
     """Fingertips by finger name. ``fingers`` maps a name to a :class:`Fingertip`, or to
-    ``(fingertip, channels)`` when several fingers share one device."""
+    ``(fingertip, channels)`` when several fingers share one device. ``queue_size=0``: no
+    queue of finger frames, for consumers that take them by callback (a publisher, a
+    recorder): :meth:`read` and :meth:`frames` then raise, and no overruns are counted for
+    frames nobody was going to read."""
 
     def __init__(self, fingers: Mapping[str, Fingertip | tuple[Fingertip, Sequence[int]]],
                  queue_size: int = 16384) -> None:
@@ -41,7 +44,8 @@ class Hand:
         for dev, _ in self._fingers.values():
             if dev not in self._devices:
                 self._devices.append(dev)
-        self._queue: deque[FingerFrame] = deque(maxlen=queue_size)
+        self._queue: deque[FingerFrame] | None = (deque(maxlen=queue_size) if queue_size
+                                                   else None)
         self._cond = threading.Condition()
         self._latest: dict[str, Frame] = {}
         self.overruns = 0
@@ -61,9 +65,11 @@ class Hand:
                     for name, sn in serials.items()})
 
     @classmethod
-    def split(cls, device: Fingertip, groups: Mapping[str, Sequence[int]]) -> Hand:
+    def split(cls, device: Fingertip, groups: Mapping[str, Sequence[int]],
+              queue_size: int = 16384) -> Hand:
         """One multi-channel device whose channels are split into fingers."""
-        return cls({name: (device, chans) for name, chans in groups.items()})
+        return cls({name: (device, chans) for name, chans in groups.items()},
+                   queue_size=queue_size)
 
     @property
     def fingers(self) -> list[str]:
@@ -94,13 +100,16 @@ class Hand:
     def _make_callback(self, dev: Fingertip):
         targets = [(name, chans) for name, (d, chans) in self._fingers.items() if d is dev]
 
+        queue = self._queue
+
         def on_frame(frame: Frame) -> None:
             with self._cond:
                 for name, chans in targets:
                     f = frame if chans is None else _select(frame, chans)
-                    if len(self._queue) == self._queue.maxlen:
-                        self.overruns += 1
-                    self._queue.append(FingerFrame(name, f))
+                    if queue is not None:
+                        if len(queue) == queue.maxlen:
+                            self.overruns += 1
+                        queue.append(FingerFrame(name, f))
                     self._latest[name] = f
                     for fn in self._callbacks:
                         fn(name, f)
@@ -185,13 +194,17 @@ class Hand:
     def read(self, timeout: float | None = None) -> FingerFrame | None:
         """The next frame of any finger, or None after ``timeout`` seconds without one.
         Raises :class:`NotConnected` when every device is closed and no frame is left."""
+        queue = self._queue
+        if queue is None:
+            raise FingertipError("this hand was made with queue_size=0: its frames go to "
+                                 "callbacks only (add_callback), nothing queues them to read")
         with self._cond:
-            if not self._queue:
+            if not queue:
                 self._check_open()
                 self._cond.wait(timeout)
-            if not self._queue:
+            if not queue:
                 self._check_open()
-            return self._queue.popleft() if self._queue else None
+            return queue.popleft() if queue else None
 
     def _check_open(self) -> None:
         if all(d.status == "closed" for d in self._devices):

@@ -177,9 +177,10 @@ class ForceModel:
         """
         if np.isscalar(timeout_mask) and np.isscalar(saturation_mask) \
                 and not (timeout_mask or saturation_mask):
-            fast = self._estimate_one(counts, return_status)
-            if fast is not None:
-                return fast
+            one = self._run_one(counts, return_status)
+            if one is not None:
+                out = one[0].astype(np.float64)  # a copy: the buffer is reused next call
+                return (out, one[1]) if return_status else out
         x = np.asarray(counts, dtype=np.float64)
         single = x.ndim == 1
         if single:
@@ -212,9 +213,22 @@ class ForceModel:
 
     __call__ = estimate
 
-    def _estimate_one(self, counts, return_status: bool):
+    def estimate_xyz(self, counts) -> tuple[float, float, float]:
+        """``(fx, fy, 0.0)`` of one frame's counts as Python floats, the force vector a
+        ``WrenchStamped`` carries (NaN when the frame cannot be estimated): what a
+        publisher or recorder needs per frame, without an array to convert."""
+        one = self._run_one(counts, False)
+        if one is None:
+            f = self.estimate(counts)
+            return float(f[0]), float(f[1]), 0.0
+        fx, fy = one[0].tolist()
+        return fx, fy, 0.0
+
+    def _run_one(self, counts, want_status: bool) -> tuple[np.ndarray, ForceStatus] | None:
         """The common case, one valid frame without masks, in plain Python (about 2 us of
-        overhead on top of onnxruntime instead of 30); None: take the general path."""
+        overhead on top of onnxruntime instead of 30): ``(output row, status)``, the row a
+        view of a buffer the next call overwrites; None: take the general path. The range
+        is checked only when the status is wanted."""
         if isinstance(counts, np.ndarray):
             if counts.ndim != 1:
                 return None
@@ -237,15 +251,14 @@ class ForceModel:
         if self._scale != 1:
             buf *= self._scale
         st = ForceStatus.OK
-        if self._range is not None:
+        if want_status and self._range is not None:
             lo, hi = self._range_lists
             for v, a, b in zip(buf[0].tolist(), lo, hi, strict=True):
                 if v < a or v > b:
                     st = ForceStatus.OUT_OF_RANGE
                     break
         self._session.run_with_iobinding(bind)
-        out = tl.y[0].astype(np.float64)  # a copy: the buffer is reused by the next call
-        return (out, st) if return_status else out
+        return tl.y[0], st
 
     def _new_binding(self, tl):
         import onnxruntime as ort

@@ -21,6 +21,7 @@ wins, as it does for rmw_cyclonedds.
 """
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import struct
@@ -315,7 +316,12 @@ class DdsTransport:
 
         self.node = node or DdsNode()
         self._S = S
-        self._encoders = ENCODERS
+        # The hot kinds come out of their encoder already padded as rmw_cyclonedds sends
+        # them, so the writer's pad4 has nothing left to copy.
+        self._encoders = dict(ENCODERS)
+        for kind, enc in (("raw", S.encode_raw), ("wrench", S.encode_wrench),
+                          ("audio", S.encode_audio)):
+            self._encoders[kind] = functools.partial(enc, padded=True)
         self._writers: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
         self._clock: Callable[[bytes], None] | None = None

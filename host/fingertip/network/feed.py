@@ -60,10 +60,11 @@ class Feed:
         self.timebase = timebase or TimeBase.measure()
         if hasattr(transport, "timebase"):  # LSL stamps: the same clock mapping as ours
             transport.timebase = self.timebase
-        self.published: Counter[str] = Counter()
+        self._counts: Counter[tuple[str, str]] = Counter()
         self.errors: Counter[str] = Counter()
         self._lock = threading.Lock()
         self._models: dict[str, ForceModel | None] = {}
+        self._forces: dict[str, Callable[[Sequence[int]], tuple[float, float, float]]] = {}
         self._detach: list[Callable[[], None]] = []
         self._pumps: list[threading.Thread] = []
         self._stop = threading.Event()
@@ -76,8 +77,18 @@ class Feed:
         S.check_name(name)
         if name in self._models:
             raise ValueError(f"a fingertip named {name!r} is already published")
-        self._models[name] = force_model
+        self._set_model(name, force_model)
         self.transport.add_fingertip(name, info)
+
+    def _set_model(self, name: str, model: ForceModel | None) -> None:
+        self._models[name] = model
+        if model is None:
+            self._forces.pop(name, None)
+            return
+        # A ForceModel hands over Python floats directly; any other callable's output is
+        # converted per frame.
+        fast = getattr(model, "estimate_xyz", None)
+        self._forces[name] = fast if callable(fast) else (lambda counts: xyz(model(counts)))
 
     def attach(self, fingertip: Any, name: str, force_model: ForceModel | None = None) -> None:
         """Publish every frame of ``fingertip`` (a Fingertip, a Replay: any frame source
@@ -85,7 +96,7 @@ class Feed:
         info = device_info(fingertip, name)
         if name not in self._models:  # not declared beforehand with add_fingertip
             self.add_fingertip(name, force_model, info)
-        self._models[name] = force_model
+        self._set_model(name, force_model)
         self.info(name, info)
 
         def on_frame(frame: Frame, _n: str = name) -> None:
@@ -104,16 +115,22 @@ class Feed:
             self._tell_once(f"{kind}-{name}", "%s %s: publishing failed (%s)", name, kind, e)
         else:
             with self._lock:  # several threads publish (readers, audio pump, services)
-                self.published[S.topic(name, kind)] += 1
+                self._counts[name, kind] += 1
+
+    @property
+    def published(self) -> Counter[str]:
+        """Messages published so far, per topic name."""
+        with self._lock:
+            return Counter({S.topic(n, k): c for (n, k), c in self._counts.items() if c})
 
     def frame(self, name: str, frame: Frame) -> None:
         raw = frame_message(name, frame, self.timebase)
         self._send(name, "raw", raw)
-        model = self._models.get(name)
-        if model is None:
+        force_of = self._forces.get(name)
+        if force_of is None:
             return
         try:
-            force = xyz(model(frame.counts))
+            force = force_of(frame.counts)
         except Exception as e:  # one frame the model cannot take: count it, go on
             with self._lock:
                 self.errors["force_model"] += 1

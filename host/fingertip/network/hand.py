@@ -35,10 +35,15 @@ def hand_conflict(args: argparse.Namespace, spec: HandSpec | None) -> str | None
 def open_fingers(spec: HandSpec, stack: contextlib.ExitStack) -> list[Any]:
     """Open the hand (refusing a split that names channels the device does not have) and
     return one frame source per finger (:class:`~fingertip.device.finger.FingerView`),
-    closed with ``stack``."""
+    closed with ``stack``. As for single fingertips (``publish_sources.open_fingertips``),
+    all its devices are read on one thread and nothing queues frames: the feed takes them
+    by callback, so a queue would only count overruns of frames nobody reads."""
+    from ..device import SharedReader
     from ..device.finger import finger_views
 
-    hand = stack.enter_context(spec.build())
+    reader = SharedReader()
+    stack.callback(reader.close)  # after the hand's devices are closed (the stack unwinds)
+    hand = stack.enter_context(spec.build(callbacks_only=True, reader=reader))
     return finger_views(hand)
 
 

@@ -267,6 +267,78 @@ class _Reader:
         return b
 
 
+# --- precompiled layouts of the hot messages ---------------------------------------------
+#
+# A message's CDR layout (field offsets, alignment padding) depends only on the lengths of
+# its strings and, for StrainRaw, on the channel count: for one fingertip it never changes.
+# So each layout is worked out once, with _Writer's alignment rule, into one struct.Struct,
+# and a message is then a single pack instead of a dozen appends and a copy.
+
+_RAW, _WRENCH, _AUDIO = "raw", "wrench", "audio"
+_LAYOUTS: dict[tuple, tuple[struct.Struct, bytes, bytes]] = {}
+_MAX_LAYOUTS = 512
+"""Frame ids are few in a session; the bound only keeps a stream of odd names in check."""
+
+
+class _Layout:
+    """The struct format of a CDR message, built field by field as _Writer writes it."""
+
+    def __init__(self) -> None:
+        self.fmt = ["<4s"]  # the encapsulation header
+        self.pos = 0  # offset from the end of that header, which alignment counts from
+
+    def field(self, code: str, size: int, align: int) -> None:
+        pad = -self.pos % align
+        if pad:
+            self.fmt.append(f"{pad}x")
+        self.fmt.append(code)
+        self.pos += pad + size
+
+    def string(self, text: str) -> bytes:
+        """A string as one constant blob (length prefix, UTF-8 bytes, NUL): returned, to
+        be passed to ``pack``."""
+        b = text.encode("utf-8")
+        blob = _U32.pack(len(b) + 1) + b + b"\0"
+        self.field(f"{len(blob)}s", len(blob), 4)
+        return blob
+
+    def done(self, padded: bool) -> struct.Struct:
+        pad = -self.pos % 4 if padded else 0  # the 4-byte header keeps the total's phase
+        if pad:
+            self.fmt.append(f"{pad}x")
+        return struct.Struct("".join(self.fmt))
+
+
+def _layout(kind: str, frame_id: str, n: int, padded: bool, encoding: str = ""
+            ) -> tuple[struct.Struct, bytes, bytes]:
+    """``(struct, frame_id blob, encoding blob)`` of a message kind (see above)."""
+    key = (kind, frame_id, n, padded, encoding)
+    got = _LAYOUTS.get(key)
+    if got is not None:
+        return got
+    lay = _Layout()
+    lay.field("iI", 8, 4)  # header.stamp
+    name = lay.string(frame_id)
+    enc = b""
+    if kind == _RAW:
+        for code, size, align in (("I", 4, 4), ("Q", 8, 8), ("iI", 8, 4),
+                                  (f"I{n}i", 4 + 4 * n, 4), ("H", 2, 2), ("H", 2, 2)):
+            lay.field(code, size, align)
+    elif kind == _WRENCH:
+        lay.field("6d", 48, 8)
+    else:  # an audio chunk up to its samples' length prefix; the samples are joined after
+        for code, size, align in (("Q", 8, 8), ("I", 4, 4), ("I", 4, 4), ("d", 8, 8),
+                                  ("d", 8, 8), ("Q", 8, 8)):
+            lay.field(code, size, align)
+        enc = lay.string(encoding)
+        lay.field("I", 4, 4)
+    got = (lay.done(padded), name, enc)
+    if len(_LAYOUTS) >= _MAX_LAYOUTS:
+        _LAYOUTS.clear()
+    _LAYOUTS[key] = got
+    return got
+
+
 def stamp_of(ns: int) -> tuple[int, int]:
     """Nanoseconds since the epoch -> builtin_interfaces/Time ``(sec, nanosec)``."""
     sec, nsec = divmod(int(ns), NS)
@@ -318,16 +390,15 @@ class EventMsg:
     detail: str = ""
 
 
-def encode_raw(m: RawMsg) -> bytes:
-    w = _Writer()
-    w.header(m.stamp_ns, m.frame_id)
-    w.u32(m.seq)
-    w.u64(m.device_time_us)
-    w.stamp(m.arrival_ns)
-    w.i32_seq(m.counts)
-    w.u16(m.timeout_mask)
-    w.u16(m.saturation_mask)
-    return bytes(w.buf)
+def encode_raw(m: RawMsg, *, padded: bool = False) -> bytes:
+    """``fingertip_msgs/StrainRaw`` as CDR; ``padded``: zero-filled to a multiple of 4
+    bytes, as rmw_cyclonedds sends a sample (one pack instead of a copy afterwards)."""
+    counts = m.counts
+    st, name, _ = _layout(_RAW, m.frame_id, len(counts), padded)
+    sec, nsec = divmod(int(m.stamp_ns), NS)
+    asec, ansec = divmod(int(m.arrival_ns), NS)
+    return st.pack(_CDR_LE_HEADER, sec, nsec, name, m.seq, m.device_time_us, asec, ansec,
+                   len(counts), *counts, m.timeout_mask, m.saturation_mask)
 
 
 def decode_raw(data: bytes) -> RawMsg:
@@ -336,12 +407,13 @@ def decode_raw(data: bytes) -> RawMsg:
     return RawMsg(stamp, frame_id, r.u32(), r.u64(), r.stamp(), r.i32_seq(), r.u16(), r.u16())
 
 
-def encode_wrench(m: WrenchMsg) -> bytes:
-    w = _Writer()
-    w.header(m.stamp_ns, m.frame_id)
-    for v in (*m.force, *m.torque):
-        w.f64(float(v))
-    return bytes(w.buf)
+def encode_wrench(m: WrenchMsg, *, padded: bool = False) -> bytes:
+    """``geometry_msgs/WrenchStamped`` as CDR (``padded``: see :func:`encode_raw`)."""
+    st, name, _ = _layout(_WRENCH, m.frame_id, 0, padded)
+    sec, nsec = divmod(int(m.stamp_ns), NS)
+    (fx, fy, fz), (tx, ty, tz) = m.force, m.torque
+    return st.pack(_CDR_LE_HEADER, sec, nsec, name, float(fx), float(fy), float(fz),
+                   float(tx), float(ty), float(tz))
 
 
 def decode_wrench(data: bytes) -> WrenchMsg:
@@ -351,18 +423,16 @@ def decode_wrench(data: bytes) -> WrenchMsg:
     return WrenchMsg(stamp, frame_id, (v[0], v[1], v[2]), (v[3], v[4], v[5]))
 
 
-def encode_audio(m: AudioMsg) -> bytes:
-    w = _Writer()
-    w.header(m.stamp_ns, m.frame_id)
-    w.u64(m.first_index)
-    w.u32(m.frames)
-    w.u32(m.channels)
-    w.f64(m.sample_rate)
-    w.f64(m.host_rate)
-    w.u64(m.lost_before)
-    w.string(m.encoding)
-    w.u8_seq(m.data)
-    return bytes(w.buf)
+def encode_audio(m: AudioMsg, *, padded: bool = False) -> bytes:
+    """``fingertip_msgs/AudioChunk`` as CDR (``padded``: see :func:`encode_raw`): the
+    fixed fields in one pack, the samples joined once (no growing buffer to copy)."""
+    st, name, enc = _layout(_AUDIO, m.frame_id, 0, False, m.encoding)
+    sec, nsec = divmod(int(m.stamp_ns), NS)
+    data = m.data
+    head = st.pack(_CDR_LE_HEADER, sec, nsec, name, m.first_index, m.frames, m.channels,
+                   m.sample_rate, m.host_rate, m.lost_before, enc, len(data))
+    pad = -(len(head) + len(data)) % 4 if padded else 0
+    return b"".join((head, data, b"\0" * pad))
 
 
 def decode_audio(data: bytes) -> AudioMsg:

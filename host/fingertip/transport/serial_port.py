@@ -51,14 +51,9 @@ class SerialStream:
             try:
                 if not self._poll.poll(timeout * 1000.0):
                     return b""
-                data = os.read(self._fd, max_bytes)
-            except BlockingIOError:
-                return b""
             except (OSError, ValueError) as e:
                 raise TransportClosed(f"{self.name}: {e}") from e
-            if not data:  # readable but empty: the device is gone (USB unplugged, pty closed)
-                raise TransportClosed(f"{self.name}: the device disconnected")
-            return data
+            return self.read_ready(max_bytes)
         try:
             if self._ser.timeout != timeout:
                 self._ser.timeout = timeout
@@ -67,6 +62,24 @@ class SerialStream:
         except (serial.SerialException, OSError, TypeError, AttributeError) as e:
             # TypeError/AttributeError: pyserial after the fd vanished under it.
             raise TransportClosed(f"{self.name}: {e}") from e
+
+    def read_ready(self, max_bytes: int = 4096) -> bytes:
+        """What has arrived, without waiting: for a caller that already waited on
+        :meth:`fileno` (one select for several ports) and was told it is readable, so the
+        second poll of :meth:`read` would only cost a system call."""
+        if self._fd is None:
+            return self.read(max_bytes, timeout=0)
+        if not self._ser.is_open:
+            raise TransportClosed(f"{self.name} is closed")
+        try:
+            data = os.read(self._fd, max_bytes)
+        except BlockingIOError:
+            return b""
+        except (OSError, ValueError) as e:
+            raise TransportClosed(f"{self.name}: {e}") from e
+        if not data:  # readable but empty: the device is gone (USB unplugged, pty closed)
+            raise TransportClosed(f"{self.name}: the device disconnected")
+        return data
 
     def write(self, data: bytes) -> None:
         if not self._ser.is_open:
