@@ -1,5 +1,5 @@
-"""A published hand is read like published single fingertips: every device of the process
-on one shared reader thread, and no queue (of the devices or the hand) that counts
+"""A published or recorded hand is read like published single fingertips: every device of the
+process on one shared reader thread, and no queue (of the devices or the hand) that counts
 overruns of frames nobody reads."""
 from __future__ import annotations
 
@@ -71,3 +71,31 @@ def test_a_split_device_is_read_on_the_shared_thread_too(tmp_path):
                 assert got[v.name][-1].counts == tuple(range(4 * k, 4 * k + 4))
             with pytest.raises(FingertipError, match="queue_size=0"):
                 views[0].hand.read(0.1)
+
+
+def test_a_recorded_hand_is_read_on_one_thread_without_queues(tmp_path):
+    """`record --hand`: the recorder takes frames by callback, so the hand and its devices
+    queue nothing (no phantom overruns), one thread reads them, and the summary gives the
+    devices' own loss counters."""
+    from fingertip.record.hand_record import record_hand
+    from fingertip.record.reader import Recording
+    from fingertip.record.session import RecordSettings
+
+    devs = [PtyDevice(VirtualFirmware(4, source=lambda t, k=k: (k + 1,) * 4),
+                      link=tmp_path / f).start() for k, f in enumerate(FINGERS)]
+    seen: list[list[str]] = []
+    try:
+        spec = HandSpec(ports={f: str(tmp_path / f) for f in FINGERS})
+        out = tmp_path / "hand.mcap"
+        res = record_hand(RecordSettings(out, duration=1.0), spec, [],
+                          say=lambda line: seen.append(_reader_threads()))
+        assert seen == [["fingertip-reader-shared"]]
+        assert res.error is None and res.dropped == 0
+        assert (res.frames_lost, res.crc_errors, res.reconnects) == (0, 0, 0)
+        assert "devices: lost 0, CRC errors 0, reconnects 0" in res.text()
+        assert all(c["raw"] >= 40 for c in res.per_finger.values()), res.per_finger
+        assert Recording(out).devices() == sorted(FINGERS)
+        assert wait_for(lambda: not _reader_threads(), 2.0)
+    finally:
+        for d in devs:
+            d.stop()

@@ -75,6 +75,11 @@ class Hand:
     def fingers(self) -> list[str]:
         return list(self._fingers)
 
+    @property
+    def devices(self) -> list[Fingertip]:
+        """Each device once (a split device serves several fingers)."""
+        return list(self._devices)
+
     def device(self, finger: str) -> Fingertip:
         if finger not in self._fingers:
             raise KeyError(f"no finger named {finger!r} (this hand has "

@@ -26,7 +26,10 @@ class HandSummary:
     dropped: int
     dropped_by_topic: dict[str, int]
     megabytes: float
-    overruns: int
+    frames_lost: int
+    """Frames the devices lost (sequence gaps), summed over the hand's devices."""
+    crc_errors: int
+    reconnects: int
     error: str | None = None
 
     def text(self) -> str:
@@ -36,7 +39,8 @@ class HandSummary:
         drops = ", ".join(f"{k}: {v}" for k, v in sorted(self.dropped_by_topic.items()))
         lines.append(f"recorded {self.elapsed_s:.1f} s to {self.output}: dropped {self.dropped}"
                      + (f" ({drops})" if drops else "") + "; "
-                     f"{self.megabytes:.2f} MB; hand queue overruns {self.overruns}")
+                     f"{self.megabytes:.2f} MB; devices: lost {self.frames_lost}, CRC "
+                     f"errors {self.crc_errors}, reconnects {self.reconnects}")
         return "\n".join(lines)
 
 
@@ -46,9 +50,11 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
     names) pairs, not started) until the settings' duration, SIGTERM or Ctrl-C. Raises the
     devices', recorder's and audio errors (and ValueError for a split that names channels
     the device does not have); everything opened is closed whatever happens."""
-    from ..device import FingertipError
+    from ..device import FingertipError, SharedReader
 
-    hand = spec.build()
+    # The recorder takes frames by callback: queues nobody reads would only count phantom
+    # overruns, and one thread reads every device of the hand.
+    hand = spec.build(callbacks_only=True, reader=SharedReader())
     rec = None
     try:
         hand.open()  # refuses a split that names channels the device does not have
@@ -82,13 +88,17 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
         for source, _ in audio:   # before the recorder closes: what they captured is recorded
             source.stop()
         s = rec.close()
+        stats = [d.stats for d in hand.devices]
         per = {f: {k: s.written.get(f"/fingertip/{f}/{k}", 0)
                    for k in ("raw", "wrench", "audio", "events")} for f in hand.fingers}
         for f, c in per.items():
             c["audio_frames"] = s.audio_frames.get(f, 0)
         return HandSummary(output=settings.output, elapsed_s=elapsed, per_finger=per,
                            dropped=s.dropped_total, dropped_by_topic=dict(s.dropped),
-                           megabytes=s.bytes_written / 1e6, overruns=hand.overruns,
+                           megabytes=s.bytes_written / 1e6,
+                           frames_lost=sum(st.frames_lost for st in stats),
+                           crc_errors=sum(st.crc_errors for st in stats),
+                           reconnects=sum(st.reconnects for st in stats),
                            error=None if rec.error is None else str(rec.error))
     finally:
         for source, _ in audio:
