@@ -76,7 +76,9 @@ def test_realtime_is_paced_and_stamped_ideally():
     elapsed = time.monotonic() - t_start
     assert 0.29 <= elapsed < 1.0, elapsed
     assert sum(c.frames for c in chunks) == round(0.3 * FS)
-    assert all(c.frames == 441 for c in chunks)
+    # Produced in 441-frame blocks; a reader the scheduler kept away for a while takes the
+    # blocks that came meanwhile in one chunk, as from a sound card (seen at load 5).
+    assert all(c.frames % 441 == 0 for c in chunks)
     assert src.stats.late_blocks < 3  # a loaded CI machine may be late once or twice
 
 

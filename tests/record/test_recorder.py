@@ -277,3 +277,24 @@ def test_two_fingertips_in_one_file(device, tmp_path):
     assert r.devices() == ["index", "thumb"] and r.info("index") == {"name": "index"}
     assert Counter(x.name for x in r.records(kinds=("raw",))) == {"index": 10, "thumb": 10}
     assert schemas.topic("thumb", "raw") in r.channels()
+
+
+def test_audio_a_pump_had_not_read_at_close_is_recorded(tmp_path):
+    """close() lets the audio pump record what its source captured before the stop; it
+    used to refuse those last chunks as dropped whenever the pump was behind (CPU load)."""
+    from fingertip.audio import SimulatedSource
+
+    class SlowReads(SimulatedSource):
+        def read(self, *args, **kwargs):
+            time.sleep(0.05)  # a consumer the scheduler keeps away: data piles up meanwhile
+            return super().read(*args, **kwargs)
+
+    src = SlowReads(lambda t: np.sin(t), 44100, realtime=True)
+    rec = Recorder(tmp_path / "audio.mcap").start()
+    rec.record_audio(src, "index")
+    time.sleep(0.3)
+    src.stop()
+    st = rec.close()
+    assert src.stats.frames > 0.25 * 44100
+    assert st.dropped == {}
+    assert st.audio_frames["index"] == src.stats.frames

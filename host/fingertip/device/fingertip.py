@@ -291,9 +291,7 @@ class Fingertip(FrameSource):
             if t and t is not threading.current_thread():
                 t.join(timeout=2)
         self._reader = self._restorer = None
-        if self._stream:
-            self._stream.close()
-            self._stream = None
+        self._release_stream()
         self._fail_pending()
         with self._cond:
             self._cond.notify_all()
@@ -555,11 +553,22 @@ class Fingertip(FrameSource):
                              f"({retries + 1} attempts)")
 
     def _write(self, data: bytes) -> None:
-        stream = self._stream
-        if stream is None:
-            raise TransportError("not open")
+        # The stream is taken under the lock that its closing also holds (_release_stream):
+        # a command thread (the restorer's GET_INFO) must never write into a port that the
+        # reader is closing after a loss; pyserial then failed with a TypeError that killed
+        # the restorer for good, and the device was never taken back.
         with self._write_lock:
+            stream = self._stream
+            if stream is None:
+                raise TransportError("not open")
             stream.write(data)
+
+    def _release_stream(self) -> None:
+        """Detach and close the stream, never in the middle of a write."""
+        with self._write_lock:
+            stream, self._stream = self._stream, None
+        if stream:
+            stream.close()
 
     def _fail_pending(self) -> None:
         with self._pending_lock:
@@ -624,9 +633,7 @@ class Fingertip(FrameSource):
     def _lost(self) -> None:
         self._connected.clear()
         self._status = "reconnecting"
-        stream, self._stream = self._stream, None
-        if stream:
-            stream.close()
+        self._release_stream()
         self._fail_pending()
         if not self.reconnect:
             self._lost_for_good = True

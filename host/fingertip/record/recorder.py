@@ -190,6 +190,10 @@ class Recorder:
         self._pending: Counter[str] = Counter()
         self._thread: threading.Thread | None = None
         self._closing = threading.Event()
+        # Set first by close(): the audio pumps end and record what their sources captured
+        # before _closing refuses further writes (setting _closing first counted those last
+        # chunks as dropped whenever a pump was behind, as under CPU load).
+        self._pumps_stop = threading.Event()
         self._state = "new"
         self._error: RecorderError | None = None
         self._told: set[str] = set()
@@ -308,10 +312,11 @@ class Recorder:
                     dev.fingertip.remove_callback(dev.callback)
                 except ValueError:
                     pass
-        self._closing.set()
+        self._pumps_stop.set()
         deadline = time.monotonic() + timeout
         for t in self._pumps:
             t.join(timeout=max(0.0, min(1.0, deadline - time.monotonic())))
+        self._closing.set()
         thread = self._thread
         if thread is not None:
             thread.join(timeout=max(0.0, deadline - time.monotonic()))
@@ -446,7 +451,7 @@ class Recorder:
 
         def pump() -> None:
             try:
-                while not self._closing.is_set():
+                while not self._pumps_stop.is_set():
                     chunk = source.read(max_frames, timeout=0.05)
                     if chunk is None:
                         if source.finished:

@@ -188,7 +188,10 @@ class PtyDevice:
                         data = b""
                     if data:
                         self.bytes_in += len(data)
-                        self.firmware.advance(self._device_us())
+                        # What fell due before the command goes out first: dropping it
+                        # lost the samples (their sequence numbers used) whenever a command
+                        # met a late wake-up, as under CPU load.
+                        self._write(self.firmware.advance(self._device_us()))
                         self._write(self.firmware.receive(data))
                 self._write(self.firmware.advance(self._device_us()))
 

@@ -86,7 +86,9 @@ class SerialStream:
             raise TransportClosed(f"{self.name} is closed")
         try:
             self._ser.write(data)
-        except (serial.SerialException, OSError) as e:
+        except (serial.SerialException, OSError, TypeError, AttributeError) as e:
+            # TypeError/AttributeError: closed by another thread after the is_open check
+            # (pyserial's fd is None by then), as in read().
             raise TransportClosed(f"{self.name}: {e}") from e
 
     def close(self) -> None:
