@@ -224,7 +224,8 @@ def run() -> dict[str, float]:
         notch = bool(r8.report["mains_notch"]["adopted"])  # as the trainer chose
         cand = candidates(choose_setup(ds, FeatureConfig(mains_notch=notch)),
                           (r8.report["model"],))[0]
-        aug = AugmentConfig() if r8.report["augmentation"]["adopted"] else NONE
+        aug = AugmentConfig.from_dict(r8.report["augmentation"]["settings"]) \
+            if r8.report["augmentation"]["adopted"] else NONE
         cw = candidate_windows(cand, ds, aug, SEED)  # as the trainer chose
         unk = [unknown_auroc(cand, cw, ds, c, 5, SEED) for c in ds.classes]
         out["material_unknown_auroc"] = round(float(np.mean([u["auroc"] for u in unk])), 4)

@@ -102,3 +102,38 @@ def test_best_case_completes_answers_with_right_and_certain_ones():
     assert best[2].run[-1].tolist() == [0.0, 1.0] and best[0].run[-1].tolist() == [1.0, 0.0]
     acc = accuracy_by_time(best, labels)["whole"]
     assert acc["recordings"] == 3 and acc["accuracy"] == pytest.approx(2 / 3)
+
+
+def test_speed_alone_is_tried_when_the_full_draw_is_rejected(folder, tmp_path, monkeypatch):
+    import fingertip.models.material as material
+
+    seen = []
+    real = material._augmentation_trial
+
+    def rejecting_full(cand, ds, cfg, *args):
+        one = real(cand, ds, cfg, *args)
+        seen.append(cfg)
+        if len(seen) == 1:  # the full draw: rejected whatever it scored
+            one = dict(one, adopted=False, why=one["why"].split(":")[0] + ": not adopted")
+        return one
+
+    monkeypatch.setattr(material, "_augmentation_trial", rejecting_full)
+    full = AugmentConfig(copies=1)
+    aug = train_material(folder, tmp_path / "s", folds=2, plot=False, models=("linear",),
+                         augment=full).report["augmentation"]
+    assert seen == [full, full.speed_only()]
+    assert seen[1].p_speed == 1 and seen[1].p_hum == seen[1].p_motor == 0
+    assert [t["what"] for t in aug["tried"]] == ["augmentation", "speed augmentation"]
+    assert aug["settings"] == full.speed_only().to_dict()  # what the last trial used
+    assert "speed augmentation" in aug["why"]
+    seen.clear()  # speed turned off by the caller: no speed trial behind its back
+    no_speed = AugmentConfig(copies=1, p_speed=0.0)
+    aug = train_material(folder, tmp_path / "n", folds=2, plot=False, models=("linear",),
+                         augment=no_speed).report["augmentation"]
+    assert seen == [no_speed] and "tried" not in aug
+
+
+def test_augment_settings_round_trip_through_the_report():
+    cfg = AugmentConfig(copies=2, speed=(0.8, 1.25), p_hum=0.1)
+    assert AugmentConfig.from_dict(cfg.to_dict()) == cfg
+    assert AugmentConfig.from_dict(cfg.speed_only().to_dict()) == cfg.speed_only()

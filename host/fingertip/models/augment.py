@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 
 import numpy as np
@@ -66,6 +66,16 @@ class AugmentConfig:
             raise ValueError(f"speed factors must be 0 < low <= high, not {self.speed}")
         if not 0 < self.motor_hz[0] <= self.motor_hz[1]:
             raise ValueError(f"motor_hz must be 0 < low <= high, not {self.motor_hz}")
+
+    def speed_only(self) -> AugmentConfig:
+        """The same copies with the change of speed alone (always drawn), no hum or motor:
+        the part of the draw that costs a linear model least (docs/classifiers.md)."""
+        return replace(self, p_speed=1.0, p_hum=0.0, p_motor=0.0)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> AugmentConfig:
+        """The inverse of :meth:`to_dict` (as stored in a training report)."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
 
     def to_dict(self) -> dict:
         return {"copies": self.copies, "p_speed": self.p_speed, "p_hum": self.p_hum,
