@@ -422,6 +422,44 @@ def best_case(part: dict[int, Answers], every: dict[int, Answers], labels: np.nd
     return out
 
 
+@dataclass
+class Trial:
+    """A variant of a candidate cross-validated against the mean accuracy it must reach."""
+
+    answers: dict[int, Answers]
+    """Out-of-fold answers of the folds run."""
+    folds_run: int
+    table: dict[str, dict] | None
+    """Accuracy by decision time when every fold ran; None when it stopped early."""
+    bound: float | None
+    """When stopped early: the most its mean accuracy could still have reached."""
+
+    @property
+    def accuracy(self) -> float | None:
+        return None if self.table is None else mean_accuracy(self.table)
+
+
+def cross_validate_against(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                           folds: list[np.ndarray], classes: list[str], seed: int,
+                           clean: dict[int, Answers], need: float) -> Trial:
+    """Cross-validate ``cand`` (windows ``cw``) on ``folds`` to be compared with ``need``,
+    a mean accuracy over the decision times. The folds stop early once even right answers
+    on every recording of ``clean`` (the plain model's answers) still to come could not
+    reach ``need``: the remaining folds could not change the decision."""
+    stopped: list[int] = []
+
+    def lost(part: dict[int, Answers]) -> bool:
+        if mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) < need:
+            stopped.append(len({a.fold for a in part.values()}))
+        return bool(stopped)
+
+    ans = cross_validate(cand, cw, labels, folds, classes, seed, stop=lost)
+    if stopped:
+        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+        return Trial(ans, stopped[0], None, bound)
+    return Trial(ans, len(folds), accuracy_by_time(ans, labels), None)
+
+
 def cnn_work(cw: CandidateWindows, n_fits: int, epochs: int = CNN_EPOCHS) -> int:
     """Projected work of the CNN candidate's training in window-epochs: its training
     windows of every recording x ``epochs`` x ``n_fits`` (the folds and the final model).

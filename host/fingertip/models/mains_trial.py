@@ -29,10 +29,9 @@ from .candidates import (
     CandidateWindows,
     Setup,
     accuracy_by_time,
-    best_case,
     candidate_windows,
     candidates,
-    cross_validate,
+    cross_validate_against,
     mean_accuracy,
 )
 from .classify import Dataset
@@ -84,28 +83,20 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
         out["seconds"] = round(time.perf_counter() - t0, 3)
         return out, None
     cw = candidate_windows(notched, ds)
-    stopped: list[int] = []
-
-    def lost(part: dict[int, Answers]) -> bool:
-        # even right answers on every recording still to come could not reach ``base``:
-        # the remaining folds cannot change the decision, so they are not run
-        if mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) < base:
-            stopped.append(len({a.fold for a in part.values()}))
-        return bool(stopped)
-
-    ans = cross_validate(notched, cw, labels, folds, ds.classes, seed, stop=lost)
+    trial = cross_validate_against(notched, cw, labels, folds, ds.classes, seed, clean, base)
     out["seconds"] = round(time.perf_counter() - t0, 3)
-    if stopped:
-        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+    if trial.table is None:
+        bound = trial.bound
         out.update({"mean_accuracy_without": base, "mean_accuracy_with_at_most": bound,
-                    "folds_run": stopped[0]})
+                    "folds_run": trial.folds_run})
         out["why"] = (f"{cand.name} with the mains notch: at most {100 * bound:.2f} % "
-                      f"(after {stopped[0]} of {len(folds)} folds, the others counted "
+                      f"(after {trial.folds_run} of {len(folds)} folds, the others counted "
                       f"right) against {100 * base:.2f} % without: not adopted "
                       f"({len(with_lines)} recordings carry lines)")
         log.info("%s", out["why"])
         return out, None
-    acc = mean_accuracy(accuracy_by_time(ans, labels))
+    acc = trial.accuracy
+    ans = trial.answers
     adopted = bool(acc >= base)
     out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
                 "folds_run": len(folds), "adopted": adopted})

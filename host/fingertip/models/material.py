@@ -44,7 +44,6 @@ from .candidates import (
     Fitted,
     accuracy_by_time,
     answers_of,
-    best_case,
     band_powers,
     calibrated,
     candidate_windows,
@@ -52,6 +51,7 @@ from .candidates import (
     cnn_work,
     choose_setup,
     cross_validate,
+    cross_validate_against,
     decision_curve,
     ece_of,
     fit_on,
@@ -385,21 +385,11 @@ def _augmentation_trial(cand: Candidate, ds: Dataset, augment: AugmentConfig, se
     accuracy (see :func:`_try_augmentation`)."""
     out: dict = {"settings": augment.to_dict(), "what": what}
     cw = candidate_windows(cand, ds, augment, seed, clean=cws[cand.name])
-    clean = oof[cand.name]
-    stopped = []
-
-    def lost(part: dict[int, Answers]) -> bool:
-        # even if every recording still to answer were right, the rule would reject it:
-        # the remaining folds cannot change the decision, so they are not run
-        if mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) \
-                < base - TIE:
-            stopped.append(len({a.fold for a in part.values()}))
-        return bool(stopped)
-
-    ans = cross_validate(cand, cw, labels, folds, ds.classes, seed, stop=lost)
-    done = stopped[0] if stopped else len(folds)
-    if stopped:
-        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+    trial = cross_validate_against(cand, cw, labels, folds, ds.classes, seed,
+                                   oof[cand.name], base - TIE)
+    ans, done = trial.answers, trial.folds_run
+    if trial.table is None:
+        bound = trial.bound
         out.update({"mean_accuracy_without": base, "mean_accuracy_with": None,
                     "mean_accuracy_with_at_most": bound, "folds_run": done,
                     "adopted": False})
@@ -408,8 +398,7 @@ def _augmentation_trial(cand: Candidate, ds: Dataset, augment: AugmentConfig, se
                       f"{100 * base:.2f} % without: not adopted")
         log.info("%s", out["why"])
         return out
-    table = accuracy_by_time(ans, labels)
-    acc = mean_accuracy(table)
+    table, acc = trial.table, trial.accuracy
     out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
                 "accuracy_by_time_with": table, "folds_run": done,
                 "adopted": bool(acc >= base - TIE)})
