@@ -31,8 +31,7 @@ def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
         log.error("%s", e)
         return 2
     try:
-        devices = {id(hand.device(f)): hand.device(f) for f in hand.fingers}
-        for dev in devices.values():
+        for dev in hand.devices:
             apply_stream_settings(dev, args)
         if args.tare:
             hand.tare(samples=args.tare)
@@ -58,7 +57,7 @@ def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
                 hand.stop()
             except FingertipError:
                 pass
-        for dev in devices.values():
+        for dev in hand.devices:
             st = dev.stats
             print(f"{dev.port}: lost {st.frames_lost}, CRC errors {st.crc_errors}, COBS "
                   f"errors {st.cobs_errors}, reconnects {st.reconnects}", file=sys.stderr)
