@@ -272,6 +272,13 @@ def test_piezo_none_and_dc():
     assert r["piezo DC offset"].status == WARN
 
 
+def test_piezo_empty_capture_fails_with_a_fix():
+    # a card unplugged during the taps delivers nothing: a clear failure, not a crash
+    r = check_piezo(np.zeros(0, np.float32), FS, 0.0, [0.5], 3, "card")
+    assert [(x.check, x.status) for x in r] == [("piezo", FAIL)]
+    assert "no samples" in r[0].value and "plugged in" in r[0].fix
+
+
 def test_hum_rms_of_a_known_tone():
     t = np.arange(FS) / FS
     h, m = hum_rms(0.01 * np.sqrt(2) * np.sin(2 * np.pi * 60 * t), FS)

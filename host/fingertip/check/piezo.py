@@ -88,6 +88,10 @@ def check_piezo(audio: np.ndarray | None, fs: float, t0: float, force_taps: list
     if audio is None:
         return [_r("piezo", SKIP, "no sound card", "", fix="")]
     x = np.asarray(audio, dtype=np.float64).reshape(-1)
+    if x.size == 0:
+        return [_r("piezo", FAIL, "the sound card delivered no samples", "> 0 samples", None,
+                   "", f"{name or 'the card'} recorded nothing: is it still plugged in, and "
+                   "not taken by another program (arecord -l, pavucontrol)?")]
     # A card's first buffers are often zero-filled before its stream runs: digital silence
     # is not the piezo at rest, and it would dilute the hum and floor measured below.
     lead = int(np.argmax(x != 0.0)) if np.any(x != 0.0) else 0
