@@ -26,6 +26,7 @@ from fingertip.models.classify import (
     stratified_folds,
 )
 from fingertip.models.features import FeatureError, as_recording, read_recording
+from fingertip.models.candidates import CANDIDATES
 from fingertip.models.material import train_material
 from fingertip.models.reliability import apply_temperature
 from fingertip.sim.physics import PAPER_SEVEN, Slide, simulate
@@ -127,7 +128,7 @@ def test_a_model_runs_at_lower_rates_only_when_its_bands_fit(data, trained, tmp_
 def test_onnx_matches_float64_and_gain_does_not_matter(data, trained):
     clf = VibrationClassifier(trained.model_path, kind="material")
     assert clf.classes == sorted(PAPER_SEVEN)
-    assert clf.architecture == trained.report["model"] in ("baseline", "linear", "mlp", "cnn")
+    assert clf.architecture == trained.report["model"] in CANDIDATES
     rec = read_recording(data / "44k" / "tpu" / "tpu_03.wav")
     w = clf.pipeline.windows(rec)
     ref = apply_temperature(trained.model.forward(w.inputs.astype(np.float64)),
@@ -260,8 +261,8 @@ def test_short_recordings_at_low_rates_train_without_options(data, tmp_path):
     rep = r.report
     assert rep["features"]["f_hi"] == 990 and rep["setup"]["features"]["f_lo"] == 30
     # the CNN is cross-validated or skipped by its budget rule, with the reason, never both
-    assert set(rep["candidates"]) | set(rep["candidates_skipped"]) == {"baseline", "linear",
-                                                                        "mlp", "cnn"}
+    assert set(rep["candidates"]) | set(rep["candidates_skipped"]) == {
+        "baseline", "linear", "mlp", "ensemble", "cnn"}
     assert not set(rep["candidates"]) & set(rep["candidates_skipped"])
     for c in rep["candidates"].values():
         assert set(c["accuracy_by_time"]) == {"0.25 s", "0.5 s", "1 s", "2 s", "whole"}

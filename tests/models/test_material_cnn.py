@@ -6,9 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import soundfile as sf
-from scipy.signal import butter, sosfilt
 
+from tests.models.band_noise import write_band_noise
 from fingertip.models.augment import NONE, AugmentConfig
 from fingertip.models.classify import VibrationClassifier
 from fingertip.models.features import read_recording
@@ -20,17 +19,8 @@ RATE = 8000
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory):
     """Two classes of noise in different bands (1 s each, 6 per class), at any gain."""
-    root = tmp_path_factory.mktemp("bands")
-    rng = np.random.default_rng(0)
-    for label, band in (("low", (200, 600)), ("high", (1500, 3000))):
-        sos = butter(4, [band[0] / (RATE / 2), band[1] / (RATE / 2)], "bandpass",
-                     output="sos")
-        (root / label).mkdir()
-        for i in range(6):
-            x = sosfilt(sos, rng.standard_normal(RATE)) + 0.05 * rng.standard_normal(RATE)
-            x *= 0.3 * 10 ** rng.uniform(-1, 0) / np.abs(x).max()
-            sf.write(root / label / f"{i}.wav", x, RATE, subtype="PCM_16")
-    return root
+    return write_band_noise(tmp_path_factory.mktemp("bands"),
+                            {"low": (200, 600), "high": (1500, 3000)}, rate=RATE, seed=0)
 
 
 def cnn_work_of(folder, n_fits: int) -> int:

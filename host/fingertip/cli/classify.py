@@ -68,11 +68,14 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     recordings, any rate from 1 to 384 kHz, any length from 0.1 s): windows and bands
     adapted to the recordings, answers that grow with the slide (0.25 s, 0.5 s, ... the
     whole recording), candidate models (a log-spectrum logistic-regression baseline,
-    logistic regression on log bands, an MLP) chosen by cross-validation by recording,
+    logistic regression on log bands, an MLP, an ensemble of these, a CNN) chosen by
+    cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
     from ..models.classifier.report_text import material_summary_lines
     from ..models.material import train_material
+
+    from ..models.candidates import CANDIDATES
 
     def train():
         return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
@@ -80,7 +83,8 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               mains_notch=args.mains_notch,
                               hidden=args.hidden, test_fraction=args.test_fraction,
                               seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
-                              epochs=args.epochs, folds=args.folds, models=args.models,
+                              epochs=args.epochs, folds=args.folds,
+                              models=args.models or CANDIDATES,
                               augment=AugmentConfig(copies=args.augment),
                               cnn_budget=args.cnn_budget)
 
@@ -290,10 +294,10 @@ def add_parsers(sub) -> None:
                         "recordings)")
     m.add_argument("--hidden", type=_hidden, default=(64,), metavar="N[,N...]",
                    help="hidden layer sizes of the MLP candidate (default 64)")
-    m.add_argument("--models", type=_models, default=("baseline", "linear", "mlp", "cnn"),
-                   metavar="NAME[,NAME...]",
+    m.add_argument("--models", type=_models, default=None, metavar="NAME[,NAME...]",
                    help="candidate models compared by cross-validation (default "
-                        "baseline,linear,mlp,cnn; the CNN only within --cnn-budget)")
+                        "baseline,linear,mlp,ensemble,cnn; the CNN only within "
+                        "--cnn-budget)")
     m.add_argument("--cnn-budget", type=number(float, 0, 1e12, lo_open=True),
                    default=None, metavar="N",
                    help="cross-validate the CNN candidate only when its projected work "

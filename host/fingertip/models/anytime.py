@@ -67,14 +67,15 @@ def training_bounds(n_frames: int, frames: int, min_frames: int, step_frames: fl
 
 
 def span_features(power: np.ndarray, starts: np.ndarray, ends: np.ndarray,
-                  floor_db: float, stats: Sequence[str] = STATS) -> np.ndarray:
+                  floor_db: float, stats: Sequence[str] = STATS, split: int = 0
+                  ) -> np.ndarray:
     """(windows, len(stats) x bands): the gain-free summary of ``power[start:end]`` for
     each window (:func:`~fingertip.models.features.pooled` of
-    :func:`~fingertip.models.features.log_window`)."""
+    :func:`~fingertip.models.features.log_window`, ``split`` as there)."""
     nb = power.shape[1]
     out = np.empty((len(starts), len(stats) * nb), dtype=power.dtype)
     for i, (s, e) in enumerate(zip(starts, ends, strict=True)):
-        out[i] = pooled(log_window(power[s:e], floor_db), stats)
+        out[i] = pooled(log_window(power[s:e], floor_db, split), stats)
     return out
 
 

@@ -39,7 +39,10 @@ from .reliability import Novelty, apply_temperature, ece, fit_temperature
 
 log = logging.getLogger(__name__)
 
-CANDIDATES = ("baseline", "linear", "mlp", "cnn")
+CANDIDATES = ("baseline", "linear", "mlp", "ensemble", "cnn")
+"""Cheapest first: of candidates tied on accuracy, the first wins."""
+ENSEMBLE_MLPS = 2
+"""MLPs in the ensemble candidate (seeds differ)."""
 CNN_EPOCHS = 30
 CNN_WORK_LIMIT = 250_000
 """The CNN candidate is cross-validated only when its projected work, in window-epochs
@@ -195,6 +198,41 @@ def _mlp_trainer(hidden: tuple[int, ...], epochs: int):
     return train
 
 
+def _ensemble_trainer(cfg: FeatureConfig, hidden: tuple[int, ...], epochs: int):
+    """The members of :mod:`.ensemble` on one spectrogram of ``cfg.n_bands`` log bands and
+    ``cfg.linear_bins`` linear bins, pooled as (mean, deviation, change) x all columns:
+    logistic regression on the linear bins' mean and deviation (the baseline's view), one
+    on the log bands' (the linear candidate's) and :data:`ENSEMBLE_MLPS` MLPs on the log
+    bands' three statistics (the mlp candidate's). Each regression keeps the L2 penalty it
+    chose at its first fit, as :func:`_linear_trainer` does."""
+    from .ensemble import Ensemble, Member
+
+    nb, total = cfg.n_bands, cfg.total_bands
+    log_cols = np.r_[0:nb, total:total + nb]
+    # (trainer, columns, seed offset): the first MLP is the mlp candidate's own model
+    views = [(_linear_trainer(), np.r_[nb:total, total + nb:2 * total], 0),
+             (_linear_trainer(), log_cols, 0)]
+    views += [(_mlp_trainer(hidden, epochs), np.r_[log_cols, 2 * total:2 * total + nb],
+               1000 * j) for j in range(ENSEMBLE_MLPS)]
+
+    def train(x, y, g, classes, seed) -> Fitted:
+        from . import ensemble
+
+        members = [Member(tr(x[:, cols], y, g, classes, seed + off).model, cols)
+                   for tr, cols, off in views]
+        m = Ensemble(members, 3 * total, list(classes))
+        return Fitted(m.forward, m.n_params,
+                      lambda path, t, meta: ensemble.to_onnx(m, path, temperature=t,
+                                                             metadata=meta), m)
+    return train
+
+
+def baseline_bins(cfg: FeatureConfig) -> int:
+    """Linear bins of the baseline's plain log spectrum: one per FFT bin (1 / window
+    length apart) over the band range, 4 to 256."""
+    return int(min(256, max(4, (cfg.f_hi - cfg.f_lo) / (1.0 / cfg.win_s))))
+
+
 def _cnn_trainer(epochs: int, max_seconds: float | None):
     """The small ResNet of :mod:`.cnn` on fixed spectrogram windows, early-stopped on 15 %
     of the training *recordings* (at least one), each fit capped at ``max_seconds``."""
@@ -228,7 +266,7 @@ def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
     for name in names:
         if name == "baseline":
             df = 1.0 / cfg.win_s
-            n = int(min(256, max(4, (cfg.f_hi - cfg.f_lo) / df)))
+            n = baseline_bins(cfg)
             c = replace(cfg, scale="linear", n_bands=n)
             out.append(Candidate(name, f"log spectrum ({n} linear bins of {df:.3g} Hz), "
                                        "mean and deviation over time, logistic regression",
@@ -244,6 +282,15 @@ def candidates(setup: Setup, names: Sequence[str] = CANDIDATES,
                                        f"frame-to-frame change, MLP {list(hidden)}",
                                  FeaturePipeline(cfg, setup.spec(("mean", "std", "flux"))),
                                  _mlp_trainer(hidden, epochs)))
+        elif name == "ensemble":
+            n = baseline_bins(cfg)
+            c = replace(cfg, linear_bins=n)
+            out.append(Candidate(name, f"geometric mean of logistic regressions on {n} "
+                                       f"linear bins and on {cfg.n_bands} log bands (mean, "
+                                       f"deviation) and {ENSEMBLE_MLPS} MLPs {list(hidden)} "
+                                       "on the log bands (and frame-to-frame change)",
+                                 FeaturePipeline(c, setup.spec(("mean", "std", "flux"))),
+                                 _ensemble_trainer(c, hidden, epochs)))
         elif name == "cnn":
             f = setup.frames(setup.first_s)
             spec = WindowSpec(f, setup.step_s, "spectrogram")

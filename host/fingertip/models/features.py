@@ -104,6 +104,10 @@ class FeatureConfig:
     """Notch out stationary 50/60 Hz lines found in each recording's own spectrum before
     the spectrogram (:mod:`fingertip.models.mains`). Models saved before this option existed
     load with it off (:meth:`from_dict`)."""
+    linear_bins: int = 0
+    """Also this many equal-width bands over the same range, after the ``n_bands`` bands
+    (one spectrogram with both views: the ensemble candidate's baseline member reads the
+    plain log spectrum, its other members the log bands). Older models load with none."""
 
     def __post_init__(self) -> None:
         if self.scale not in SCALES:
@@ -112,6 +116,8 @@ class FeatureConfig:
             raise FeatureError(f"canonical rate {self.canonical_rate} Hz is out of range")
         if not 4 <= self.n_bands <= 256:
             raise FeatureError(f"n_bands must be 4..256, not {self.n_bands}")
+        if not (self.linear_bins == 0 or 4 <= self.linear_bins <= 256):
+            raise FeatureError(f"linear_bins must be 0 or 4..256, not {self.linear_bins}")
         if not 0 < self.f_lo < (self.f_hi or math.inf):
             raise FeatureError(f"need 0 < f_lo < f_hi, got {self.f_lo} and {self.f_hi}")
         if not (0 < self.hop_s <= self.win_s <= 1.0):
@@ -163,6 +169,25 @@ class FeatureConfig:
 
     def band_centres(self) -> np.ndarray:
         return self.band_edges()[1:-1]
+
+    @property
+    def split(self) -> int:
+        """Where the linear bins start (0: none), for :func:`log_window`."""
+        return self.n_bands if self.linear_bins else 0
+
+    @property
+    def total_bands(self) -> int:
+        """Columns of the spectrogram: the bands, then the extra linear bins."""
+        return self.n_bands + self.linear_bins
+
+    def band_weights(self, freqs: np.ndarray) -> np.ndarray:
+        """(bins, :attr:`total_bands`) weights of FFT bins ``freqs``: the bands of
+        :meth:`band_edges`, then ``linear_bins`` equal-width bands over the same range."""
+        w = band_matrix(freqs, self.band_edges())
+        if not self.linear_bins:
+            return w
+        lin = np.linspace(self.f_lo, self.f_hi, self.linear_bins + 2)
+        return np.hstack([w, band_matrix(freqs, lin)])
 
     def frames_for(self, seconds: float) -> int:
         """Frames whose hop spans ``seconds`` (at least 1)."""
@@ -468,7 +493,7 @@ class Stft:
         self.freqs = np.fft.rfftfreq(self.n_fft, 1 / rate)
         # Power spectral density (units^2/Hz, one-sided) per bin, then weighted per band.
         psd_scale = 2.0 / (rate * float(np.sum(w * w)))
-        self.weights = (band_matrix(self.freqs, cfg.band_edges()) * psd_scale).astype(
+        self.weights = (cfg.band_weights(self.freqs) * psd_scale).astype(
             self.dtype)
         self._starts = np.zeros(0, dtype=np.intp)
         self._frames = np.zeros((0, self.n_fft), dtype=self.dtype)
@@ -574,13 +599,20 @@ def band_power(x: np.ndarray, rate: float, cfg: FeatureConfig | None = None,
 
 # --- per-window features ------------------------------------------------------------------
 
-def log_window(power: np.ndarray, floor_db: float = FLOOR_DB) -> np.ndarray:
+def log_window(power: np.ndarray, floor_db: float = FLOOR_DB, split: int = 0
+               ) -> np.ndarray:
     """dB relative to each window's mean band power, floored at ``floor_db``.
 
     ``power``: (..., frames, bands), one window per leading index. Gain-free: scaling the
     input by any factor gives the same values. Silence (all zero) gives ``floor_db``.
+    ``split``: the columns from ``split`` on (the linear bins of
+    :attr:`FeatureConfig.linear_bins`) are relative to their own mean, so that each view
+    of the spectrum is the same as on its own.
     """
     p = np.asarray(power)
+    if 0 < split < p.shape[-1]:
+        return np.concatenate([log_window(p[..., :split], floor_db),
+                               log_window(p[..., split:], floor_db)], axis=-1)
     m = p.mean(axis=(-2, -1), keepdims=True)
     tiny = np.finfo(p.dtype).tiny if p.dtype.kind == "f" else 1e-300
     silent = m <= tiny

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .onnx_io import onnx_builder, save_graph
+from .onnx_io import batch_graph, onnx_builder, save_graph
 
 log = logging.getLogger(__name__)
 
@@ -140,25 +140,32 @@ def _choose_l2(xs: np.ndarray, y: np.ndarray, k: int, g: np.ndarray, weights: np
     return best_l2
 
 
+def logit_nodes(model: Logistic, input_name: str, output_name: str, prefix: str = "",
+                temperature: float = 1.0) -> tuple[list, list]:
+    """(nodes, initialisers) computing ``logits / temperature`` from ``input_name`` into
+    ``output_name`` (one ``Gemm``, the standardisation folded into its weights); names are
+    prefixed with ``prefix`` so that several models fit in one graph."""
+    _, _, helper, numpy_helper = onnx_builder()
+    w = model.w / model.x_std[:, None] / temperature
+    b = (model.b - (model.x_mean / model.x_std) @ model.w) / temperature
+    inits = [numpy_helper.from_array(w.astype(np.float32), f"{prefix}W"),
+             numpy_helper.from_array(b.astype(np.float32), f"{prefix}b")]
+    return [helper.make_node("Gemm", [input_name, f"{prefix}W", f"{prefix}b"],
+                             [output_name])], inits
+
+
 def to_onnx(model: Logistic, path: str | Path, *, temperature: float = 1.0,
             input_name: str = "features", metadata: dict | None = None,
             opset: int = 17) -> Path:
     """Write ``softmax(logits / temperature)`` as a Gemm + Softmax graph (float32)."""
-    _, TensorProto, helper, numpy_helper = onnx_builder()
+    _, _, helper, _ = onnx_builder()
     if not temperature > 0:
         raise ValueError("temperature must be positive")
-    w = model.w / model.x_std[:, None] / temperature
-    b = (model.b - (model.x_mean / model.x_std) @ model.w) / temperature
-    d, k = w.shape
-    inits = [numpy_helper.from_array(w.astype(np.float32), "W"),
-             numpy_helper.from_array(b.astype(np.float32), "b")]
-    nodes = [helper.make_node("Gemm", [input_name, "W", "b"], ["logits"]),
-             helper.make_node("Softmax", ["logits"], ["probabilities"], axis=1)]
-    graph = helper.make_graph(
-        nodes, "fingertip_logistic",
-        [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, ["batch", d])],
-        [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, ["batch", k])],
-        inits)
+    d, k = model.w.shape
+    nodes, inits = logit_nodes(model, input_name, "logits", temperature=temperature)
+    nodes.append(helper.make_node("Softmax", ["logits"], ["probabilities"], axis=1))
+    graph = batch_graph(nodes, "fingertip_logistic", (input_name, d), ("probabilities", k),
+                        inits)
     meta = {"task": "classification", "classes": json.dumps(model.classes),
             "l2": json.dumps(model.l2), "temperature": json.dumps(temperature)}
     return save_graph(graph, path, {**meta, **(metadata or {})}, opset)

@@ -263,7 +263,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                "test_recordings": evaluation.recordings.n, "folds": folds,
                "temperature": t_final, "novelty_threshold": novelty.threshold,
                "test_answered_unknown": unknown_share}
-    meta = model_metadata(kind, setup.cfg if chosen != "baseline" else cand.pipe.cfg,
+    meta = model_metadata(kind, cand.pipe.cfg,
                           cand.pipe.spec, ds.classes, model=chosen, evaluation=summary,
                           trained_rates_hz=ds.rates, temperature=t_final,
                           novelty=novelty.to_dict())

@@ -18,7 +18,7 @@ from typing import Literal
 
 import numpy as np
 
-from .onnx_io import open_session, onnx_builder, save_graph
+from .onnx_io import batch_graph, onnx_builder, open_session, save_graph
 
 log = logging.getLogger(__name__)
 
@@ -46,13 +46,18 @@ class MLP:
     def n_params(self) -> int:
         return int(sum(w.size + b.size for w, b in zip(self.weights, self.biases, strict=True)))
 
-    def forward(self, x: np.ndarray) -> np.ndarray:
-        """Reference forward pass in float64 (what the ONNX graph must reproduce)."""
+    def logits(self, x: np.ndarray) -> np.ndarray:
+        """The last layer's output before the softmax or the output scaling (float64)."""
         h = (np.asarray(x, np.float64) - self.x_mean) / self.x_std
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
             h = h @ w + b
             if i < len(self.weights) - 1:
                 h = np.maximum(h, 0.0)
+        return h
+
+    def forward(self, x: np.ndarray) -> np.ndarray:
+        """Reference forward pass in float64 (what the ONNX graph must reproduce)."""
+        h = self.logits(x)
         if self.task == "classification":
             return _softmax(h)
         return h * self.y_scale + self.y_offset
@@ -204,34 +209,42 @@ def folded_layers(model: MLP) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return w, b
 
 
-def to_onnx(model: MLP, path: str | Path, *, input_name: str = "features",
-            output_name: str | None = None, metadata: dict | None = None,
-            opset: int = 17) -> Path:
-    """Write the MLP as an ONNX graph (float32, any batch size). Needs the ``onnx`` package."""
-    _, TensorProto, helper, numpy_helper = onnx_builder()
-    out_name = output_name or ("probabilities" if model.task == "classification"
-                               else "outputs")
-    d = model.weights[0].shape[0]
-    k = model.weights[-1].shape[1]
+def layer_nodes(model: MLP, input_name: str, output_name: str, prefix: str = ""
+                ) -> tuple[list, list]:
+    """(nodes, initialisers) of the layers from ``input_name`` to the last layer's output
+    ``output_name`` (logits for a classifier; scaled outputs for a regression), names
+    prefixed with ``prefix`` so that several models fit in one graph."""
+    _, _, helper, numpy_helper = onnx_builder()
     weights, biases = folded_layers(model)
     inits, nodes, h = [], [], input_name
     last = len(weights) - 1
     for i, (w, b) in enumerate(zip(weights, biases, strict=True)):
-        inits += [numpy_helper.from_array(w.astype(np.float32), f"W{i}"),
-                  numpy_helper.from_array(b.astype(np.float32), f"b{i}")]
-        z = out_name if i == last and model.task != "classification" else f"z{i}"
-        nodes += [helper.make_node("MatMul", [h, f"W{i}"], [f"m{i}"]),
-                  helper.make_node("Add", [f"m{i}", f"b{i}"], [z])]
+        inits += [numpy_helper.from_array(w.astype(np.float32), f"{prefix}W{i}"),
+                  numpy_helper.from_array(b.astype(np.float32), f"{prefix}b{i}")]
+        z = output_name if i == last else f"{prefix}z{i}"
+        nodes += [helper.make_node("MatMul", [h, f"{prefix}W{i}"], [f"{prefix}m{i}"]),
+                  helper.make_node("Add", [f"{prefix}m{i}", f"{prefix}b{i}"], [z])]
         h = z
         if i < last:
-            nodes.append(helper.make_node("Relu", [h], [f"r{i}"]))
-            h = f"r{i}"
-    if model.task == "classification":
-        nodes.append(helper.make_node("Softmax", [h], [out_name], axis=1))
-    graph = helper.make_graph(
-        nodes, "fingertip_mlp",
-        [helper.make_tensor_value_info(input_name, TensorProto.FLOAT, ["batch", d])],
-        [helper.make_tensor_value_info(out_name, TensorProto.FLOAT, ["batch", k])], inits)
+            nodes.append(helper.make_node("Relu", [h], [f"{prefix}r{i}"]))
+            h = f"{prefix}r{i}"
+    return nodes, inits
+
+
+def to_onnx(model: MLP, path: str | Path, *, input_name: str = "features",
+            output_name: str | None = None, metadata: dict | None = None,
+            opset: int = 17) -> Path:
+    """Write the MLP as an ONNX graph (float32, any batch size). Needs the ``onnx`` package."""
+    _, _, helper, _ = onnx_builder()
+    out_name = output_name or ("probabilities" if model.task == "classification"
+                               else "outputs")
+    d = model.weights[0].shape[0]
+    k = model.weights[-1].shape[1]
+    classify = model.task == "classification"
+    nodes, inits = layer_nodes(model, input_name, "logits" if classify else out_name)
+    if classify:
+        nodes.append(helper.make_node("Softmax", ["logits"], [out_name], axis=1))
+    graph = batch_graph(nodes, "fingertip_mlp", (input_name, d), (out_name, k), inits)
     meta = {"task": model.task, "classes": json.dumps(model.classes),
             "hidden": json.dumps(list(model.hidden))}
     return save_graph(graph, path, {**meta, **(metadata or {})}, opset)

@@ -22,6 +22,17 @@ def onnx_builder() -> tuple[Any, Any, Any, Any]:
     return onnx, TensorProto, helper, numpy_helper
 
 
+def batch_graph(nodes: list, name: str, inp: tuple[str, int], out: tuple[str, int],
+                inits: list) -> Any:
+    """A graph from ``nodes`` taking float32 rows ``(batch, inp[1])`` named ``inp[0]`` to
+    rows ``(batch, out[1])`` named ``out[0]`` (any batch size)."""
+    _, TensorProto, helper, _ = onnx_builder()
+    return helper.make_graph(
+        nodes, name,
+        [helper.make_tensor_value_info(inp[0], TensorProto.FLOAT, ["batch", inp[1]])],
+        [helper.make_tensor_value_info(out[0], TensorProto.FLOAT, ["batch", out[1]])], inits)
+
+
 def save_graph(graph: Any, path: str | Path, metadata: dict[str, Any], opset: int = 17) -> Path:
     """Wrap ``graph`` in a model (opset ``opset``, IR version at most 9 so that older runtimes
     read it too), store ``metadata`` as string properties (non-strings as JSON), check it,

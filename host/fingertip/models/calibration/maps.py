@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..mlp import MLP, to_onnx, train_mlp
-from ..onnx_io import onnx_builder, save_graph
+from ..onnx_io import batch_graph, onnx_builder, save_graph
 from .checks import _dependence
 from .errors import DeadChannelError, IllConditionedError
 from .limits import CHANNELS, MAX_CONDITION
@@ -260,7 +260,7 @@ def fit_model(name: str, counts: np.ndarray, force: np.ndarray, *,
 
 def _linear_map_onnx(m: LinearFeatureMap, path: str | Path, metadata: dict,
                      opset: int = 17) -> Path:
-    _, TensorProto, helper, numpy_helper = onnx_builder()
+    _, _, helper, numpy_helper = onnx_builder()
     f32 = np.float32
     d = len(m.x_mean)
     inits = [numpy_helper.from_array(m.x_mean.astype(f32), "x_mean"),
@@ -304,8 +304,6 @@ def _linear_map_onnx(m: LinearFeatureMap, path: str | Path, metadata: dict,
         phi = "z"
     nodes += [helper.make_node("MatMul", [phi, "coef"], ["lin"]),
               helper.make_node("Add", ["lin", "intercept"], ["force"])]
-    graph = helper.make_graph(
-        nodes, f"fingertip_force_{m.name}",
-        [helper.make_tensor_value_info("counts", TensorProto.FLOAT, ["batch", d])],
-        [helper.make_tensor_value_info("force", TensorProto.FLOAT, ["batch", 2])], inits)
+    graph = batch_graph(nodes, f"fingertip_force_{m.name}", ("counts", d), ("force", 2),
+                        inits)
     return save_graph(graph, path, metadata, opset)

@@ -75,7 +75,7 @@ class FeaturePipeline:
     def input_shape(self) -> tuple[int, ...]:
         """One window's input: (statistics x bands,) pooled or growing, or (frames, bands)
         spectrogram."""
-        n = self.cfg.n_bands
+        n = self.cfg.total_bands
         if self.spec.input == "spectrogram":
             return (self.spec.frames, n)
         return (len(self.spec.stats) * n,)
@@ -100,7 +100,7 @@ class FeaturePipeline:
         if not len(starts) and sp.input == "pooled" and sp.min_frames \
                 and len(power) >= sp.min_frames:
             starts, frames = np.zeros(1, dtype=np.intp), len(power)
-        logw = log_window(gather_windows(power, starts, frames), cfg.floor_db)
+        logw = log_window(gather_windows(power, starts, frames), cfg.floor_db, cfg.split)
         inputs = pooled(logw, sp.stats) if sp.input == "pooled" else logw
         t0 = starts * cfg.hop_s
         t1 = t0 + (frames - 1) * cfg.hop_s + cfg.win_s
@@ -117,7 +117,7 @@ class FeaturePipeline:
         cfg, sp = self.cfg, self.spec
         bounds = training_bounds if training else growing_bounds
         starts, ends = bounds(len(power), sp.frames, sp.min_frames or 1, sp.step_s / cfg.hop_s)
-        inputs = span_features(power, starts, ends, cfg.floor_db, sp.stats)
+        inputs = span_features(power, starts, ends, cfg.floor_db, sp.stats, cfg.split)
         t0 = starts * cfg.hop_s
         t1 = (ends - 1) * cfg.hop_s + cfg.win_s
         lv, cl = _window_stats(rec, t0, t1)
