@@ -6,7 +6,9 @@ the first and the longest window and the prediction step, with the reason for ea
 folder of 1 s slides at 2.2 kHz and one of 0.3 s knocks at 44.1 kHz both train without
 options). :func:`candidates` lists the models the cross-validation chooses from: the plain
 log-spectrum mean-and-deviation with logistic regression (``baseline``), logistic
-regression on the adapted log bands (``linear``) and an MLP on the same (``mlp``). All are
+regression on the adapted log bands (``linear``), an MLP on the same (``mlp``), the three
+views combined (``ensemble``, :mod:`.ensemble`) and a small CNN (``cnn``, whose fixed
+spectrogram windows slide and are averaged). The others are
 growing-window models (:mod:`.anytime`): one answer every step, summarising everything
 heard so far. :func:`cross_validate` gives every recording's out-of-fold running
 probabilities; :func:`anytime_scores` turns them into accuracy at each decision time,
