@@ -12,6 +12,7 @@ from scipy.signal import butter, sosfilt
 from fingertip.models.augment import NONE
 from fingertip.models.classify import VibrationClassifier, load_folder
 from fingertip.models.mains_trial import recordings_with_lines
+from fingertip.models.candidates import TIE
 from fingertip.models.material import train_material
 
 RATE = 8000
@@ -58,7 +59,8 @@ def test_hum_that_says_nothing_about_the_class_is_notched(tmp_path):
     r = _train(data, tmp_path / "m")
     notch = r.report["mains_notch"]
     assert notch["recordings_with_lines"] == N
-    assert notch["adopted"] and notch["mean_accuracy_with"] >= notch["mean_accuracy_without"]
+    assert notch["adopted"]
+    assert notch["mean_accuracy_with"] >= notch["mean_accuracy_without"] - TIE
     assert r.report["candidates"]["linear"]["mains_notch"] is True
     assert VibrationClassifier(r.model_path).cfg.mains_notch
 

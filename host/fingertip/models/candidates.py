@@ -54,6 +54,10 @@ folder always gives the same candidates, on any machine and at any load. The lim
 about a minute of the numpy CNN's training at the rate measured on the project's VM (225 us
 per window-epoch, one thread, load average 4: docs/classifiers.md), half the trainer's
 120 s goal for 700 slides of 2 s."""
+TIE = 0.005
+"""Mean accuracies (over the decision times) this close are the same within the
+cross-validation's noise: candidates within it of the best are tied and the cheapest wins;
+a robustness (augmentation, the mains notch) that costs no more than it is taken."""
 LONGEST_S = 2.0
 """The longest window: beyond it, windows slide and their answers are averaged."""
 FIRST_S = 0.25

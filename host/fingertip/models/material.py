@@ -39,6 +39,7 @@ from .candidates import (
     CANDIDATES,
     CNN_EPOCHS,
     CNN_WORK_LIMIT,
+    TIE,
     Answers,
     Candidate,
     Fitted,
@@ -90,8 +91,6 @@ REPORT_FILE = "report.json"
 CONFUSION_FILE = "confusion.png"
 DECISION_FILE = "decision.png"
 RELIABILITY_FILE = "reliability.png"
-TIE = 0.005
-"""Candidates within this mean accuracy of the best are tied: the cheapest wins."""
 
 
 @dataclass
