@@ -98,3 +98,29 @@ def test_without_lines_the_notch_is_kept_for_free_and_the_users_word_wins(tmp_pa
     forced = _train(hum, tmp_path / "on", mains_notch=True)
     assert forced.report["mains_notch"]["why"] == "on: asked (not tried)"
     assert VibrationClassifier(forced.model_path).cfg.mains_notch
+
+
+@pytest.mark.parametrize("margin, adopted", [(+0.001, True), (-0.001, False)])
+def test_a_notch_that_costs_less_than_the_tie_is_kept(tmp_path, monkeypatch, margin, adopted):
+    """The rule is the augmentation's: the notch is kept unless the cross-validation puts
+    it more than TIE below the plain model. The trial is asked for that very bound, and
+    an accuracy just above or below it decides."""
+    from fingertip.models import mains_trial
+    from fingertip.models.candidates import Trial
+
+    seen = []
+
+    def trial(cand, cw, labels, folds, classes, seed, clean, need):
+        seen.append(need)
+        acc = need + margin
+        table = {"whole": {"seconds": None, "accuracy": acc, "recordings": len(labels)}}
+        return Trial(clean, len(folds), table, None)
+
+    monkeypatch.setattr(mains_trial, "cross_validate_against", trial)
+    data = _write(tmp_path / "d", {"low": ((200, 800), "half"),
+                                   "high": ((1000, 3000), "half")})
+    notch = _train(data, tmp_path / "m").report["mains_notch"]
+    assert seen and seen[0] == pytest.approx(notch["mean_accuracy_without"] - TIE)
+    assert notch["adopted"] is adopted
+    assert notch["mean_accuracy_with"] == pytest.approx(seen[0] + margin)
+    assert f"{100 * TIE:g} points" in notch["rule"]
