@@ -173,7 +173,7 @@ def test_a_power_down_right_after_a_read_is_not_a_violation_in_the_read(make_sim
     time (the harness holds while the command is queued), so no host timing is involved.
     The firmware raises SCK 0.27-0.95 ms after the last pulse of a complete read at some
     phases (it waits for room to answer); the harness's read tracker used to count that
-    as pulse 26 stretched past 60 us, an in-read violation (about 4 in 50 phases; it made
+    as pulse 26 stretched past 60 us, an in-read violation (3 of these 40 phases; it made
     the power-cycle test above flaky under host load, which moves the command's phase)."""
     sim = make_sim(4)
     port = open_serial(sim.pty)
