@@ -149,3 +149,30 @@ def test_callbacks_and_overrun_counting(device):
         assert wait_for(lambda: len(got) >= 20, 2.0)
         assert ft.stats.overruns >= 10 and ft.stats.callback_errors >= 20
         assert len(ft.drain()) == 5
+
+
+def test_a_late_answer_to_an_earlier_attempt_completes_the_command(tmp_path):
+    """A device that answers every command 0.7 s late (a process starved by CPU load, as the
+    pty device in the recorder tests once was: "no answer to Start within 0.50 s"). The
+    answer to attempt 1 comes during attempt 2; it proves the command ran. It used to be
+    thrown away (every attempt waited for its own answer only), so all three attempts
+    timed out, 1.5 s after the command had been executed."""
+
+    class SlowToAnswer(VirtualFirmware):
+        delay_s = 0.0
+
+        def receive(self, data):
+            time.sleep(self.delay_s)  # blocks the device's thread, as a descheduled one is
+            return super().receive(data)
+
+    fw = SlowToAnswer(4)
+    with PtyDevice(fw, link=tmp_path / "slow") as dev:
+        with Fingertip(str(dev.link), command_timeout=0.5, retries=2) as ft:
+            fw.delay_s = 0.7
+            t0 = time.monotonic()
+            ft.start()
+            took = time.monotonic() - t0
+            fw.delay_s = 0.0
+            assert 0.65 < took < 1.45, took  # the first answer, not the third attempt's
+            assert ft.stats.command_retries == 1
+            assert ft.read(timeout=2.0) is not None  # and it streams

@@ -61,12 +61,25 @@ static uint64_t read_gap(const stats_t *st)
     return st->f_cpu / 1000000u * STATS_READ_GAP_US;
 }
 
+static uint64_t gain_gap(const stats_t *st)
+{
+    return st->f_cpu / 1000000u * STATS_GAIN_GAP_US;
+}
+
 void stats_sck_rise(stats_t *st, uint64_t now, bool any_dout_low, bool fresh_ready)
 {
     st->cur_stray = false;
     st->cur_in_read_violation = false;
     /* A chip that became ready ends a 25/26-pulse read: this rise starts the next. */
     if (st->in_read && st->read_pulses >= 25 && fresh_ready)
+        read_finish(st, st->read_pulses);
+    /*
+     * A complete read takes further pulses as gain pulses only at its own pace: the
+     * firmware clocks them in the same loop as the data bits. A rise after a longer low
+     * is the firmware's next action, e.g. a power-down commanded right after the read
+     * (the product firmware's comes 0.27-0.95 ms after it, within the read gap below).
+     */
+    if (st->in_read && st->read_pulses >= 25 && now - st->last_fall > gain_gap(st))
         read_finish(st, st->read_pulses);
     /* A long SCK-low gap ends any read (an unfinished one counts as bad). */
     if (st->in_read && now - st->last_fall > read_gap(st))

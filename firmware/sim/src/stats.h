@@ -5,8 +5,9 @@
  * edge while some DOUT is low and ends at the falling edge of its last
  * pulse. Whether it had 25, 26 or 27 pulses is only known at pulse 27, when
  * a new read starts (a chip became ready again) or when SCK stayed low for
- * more than STATS_READ_GAP_US, so a read of 25/26 pulses stays open until
- * then; reports include it provisionally.
+ * more than STATS_GAIN_GAP_US after pulse 25 or later (STATS_READ_GAP_US
+ * before it), so a read of 25/26 pulses stays open until then; reports include
+ * it provisionally.
  *
  * SCK high > 60 us powers the chips down. Firmware does that on purpose too
  * (power saving, or SCK high from boot until it wants data), so such pulses
@@ -21,6 +22,13 @@
 
 /* SCK low longer than this ends a read: no read has such a gap between its pulses. */
 #define STATS_READ_GAP_US 1000
+/*
+ * ... and this ends a read that already had its 25 pulses: gain pulses 26/27 follow
+ * pulse 25 at the pace of the data bits (SCK low for a few us, an ISR or two at most).
+ * A later rise is not part of the read, so SCK held high for a power-down there is a
+ * deliberate power-down, not a read broken by a stretched pulse.
+ */
+#define STATS_GAIN_GAP_US 100
 
 typedef struct minmax {
     uint64_t n, min, max, sum;      /* cycles */

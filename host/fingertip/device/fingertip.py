@@ -151,6 +151,8 @@ class _Pending:
     done: threading.Event = field(default_factory=threading.Event)
     replies: list = field(default_factory=list)
     result: Ack | Nack | None = None
+    request_ids: set[int] = field(default_factory=set)
+    """Every attempt's id: a late answer to an earlier attempt still proves the command ran."""
 
 
 @dataclass
@@ -525,30 +527,38 @@ class Fingertip(FrameSource):
         name = type(cmd).__name__
         if self._status == "closed":
             raise self._not_open()
-        for attempt in range(retries + 1):
-            if not self._connected.wait(timeout):
-                raise NotConnected(f"{self.name}: not connected ({self._status})")
-            cmd.request_id = next(self._request_ids)
-            pending = _Pending(cmd)
-            with self._pending_lock:
-                self._pending.append(pending)
-            try:
-                self._write(encode(cmd))
-            except TransportError:
-                pass  # the reader notices the loss and reconnects; the retry goes out then
-            if pending.done.wait(timeout):
-                res = pending.result
-                if res is None:
-                    raise NotConnected(f"{self.name}: closed while waiting for {name}")
-                if isinstance(res, Nack):
-                    raise CommandFailed(name, res.error)
-                return pending.replies
+        # One pending entry for all attempts: the answer to any of them completes the
+        # command. A device or host slowed down (CPU load) answers attempt 1 after the
+        # retry went out; throwing that answer away made every attempt wait for its own
+        # answer alone, and three late answers in a row failed a command that had run.
+        pending = _Pending(cmd)
+        try:
+            for attempt in range(retries + 1):
+                if not self._connected.wait(timeout):
+                    raise NotConnected(f"{self.name}: not connected ({self._status})")
+                cmd.request_id = next(self._request_ids)
+                with self._pending_lock:
+                    pending.request_ids.add(cmd.request_id)
+                    if attempt == 0:
+                        self._pending.append(pending)
+                try:
+                    self._write(encode(cmd))
+                except TransportError:
+                    pass  # the reader notices the loss and reconnects; the retry goes out then
+                if pending.done.wait(timeout):
+                    res = pending.result
+                    if res is None:
+                        raise NotConnected(f"{self.name}: closed while waiting for {name}")
+                    if isinstance(res, Nack):
+                        raise CommandFailed(name, res.error)
+                    return pending.replies
+                if attempt < retries:
+                    self._counters.command_retries += 1
+                    log.debug("%s: no answer to %s, retrying", self.name, name)
+        finally:
             with self._pending_lock:
                 if pending in self._pending:
                     self._pending.remove(pending)
-            if attempt < retries:
-                self._counters.command_retries += 1
-                log.debug("%s: no answer to %s, retrying", self.name, name)
         raise CommandTimeout(f"{self.name}: no answer to {name} within {timeout:.2f} s "
                              f"({retries + 1} attempts)")
 
@@ -705,7 +715,7 @@ class Fingertip(FrameSource):
     def _on_answer(self, msg: Ack | Nack) -> None:
         with self._pending_lock:
             for p in self._pending:
-                if p.command.request_id == msg.request_id:
+                if msg.request_id in p.request_ids:
                     self._pending.remove(p)
                     p.result = msg
                     p.done.set()
