@@ -50,9 +50,9 @@ DESCRIPTION = {
     "material_1s_accuracy_2k_baseline": ("same, baseline at 2.2 kHz", None),
     "material_textures_1s_accuracy": ("30 random simulated textures x 12 slides of 1 s at "
                                       "3 kHz, hand-like speed (12-36 mm/s, wandering 15 %) "
-                                      "and force, held out of every choice "
-                                      "(tests/bench/texture_set.py), 5 folds, defaults, "
-                                      "per recording", None),
+                                      "and force (tests/bench/texture_set.py; one of "
+                                      "the sets the ensemble was chosen on), 5 folds, "
+                                      "defaults, per recording", None),
     "material_textures_1s_accuracy_baseline": ("same, the baseline candidate", None),
     "material_textures_1s_chosen_is_ensemble": ("1 when the trainer chose the ensemble "
                                                 "candidate there", None),
