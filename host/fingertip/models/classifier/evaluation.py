@@ -67,6 +67,12 @@ def evaluate(y_true: Sequence[int], y_pred: Sequence[int], classes: list[str],
     return Evaluation(list(classes), cm, unit)
 
 
+CONFUSION_MAX_INCHES = 16.0
+"""The confusion figure's height at most (1760 pixels at 110 dpi)."""
+CONFUSION_TEXT_MAX = 24
+"""Classes up to which each cell is labelled with its share and count."""
+
+
 def plot_confusion(ev: Evaluation, path: str | os.PathLike, title: str = "") -> Path:
     """A PNG of the confusion matrix: rows normalised to the true class (colour and
     percentage), with the counts."""
@@ -76,14 +82,19 @@ def plot_confusion(ev: Evaluation, path: str | os.PathLike, title: str = "") -> 
     rows = cm.sum(axis=1, keepdims=True)
     frac = np.divide(cm, rows, out=np.zeros(cm.shape), where=rows > 0)
     k = len(ev.classes)
-    size = 2.2 + 0.75 * k
+    # the figure grows with the classes up to a cap: 100 classes at 0.75 in each drew an
+    # 8500-pixel square and took 3 GB and 40 s; beyond CONFUSION_TEXT_MAX classes the cells
+    # are too small for their numbers (report.json has them) and only colours are drawn
+    size = min(2.2 + 0.75 * k, CONFUSION_MAX_INCHES)
     fig, ax = plt.subplots(figsize=(size + 1.2, size), dpi=110)
     im = ax.imshow(frac, cmap="Blues", vmin=0, vmax=1)
-    ax.set_xticks(range(k), ev.classes, rotation=40, ha="right")
-    ax.set_yticks(range(k), ev.classes)
+    tick = max(3.0, min(9.0, 400.0 / k))
+    ax.set_xticks(range(k), ev.classes, rotation=40 if k <= CONFUSION_TEXT_MAX else 90,
+                  ha="right" if k <= CONFUSION_TEXT_MAX else "center", fontsize=tick)
+    ax.set_yticks(range(k), ev.classes, fontsize=tick)
     ax.set_xlabel("predicted")
     ax.set_ylabel("true")
-    for i in range(k):
+    for i in range(k if k <= CONFUSION_TEXT_MAX else 0):
         for j in range(k):
             if cm[i, j]:
                 ax.text(j, i, f"{100 * frac[i, j]:.0f}%\n({cm[i, j]})", ha="center",
