@@ -72,10 +72,9 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.augment import AugmentConfig
+    from ..models.candidates import CANDIDATES
     from ..models.classifier.report_text import material_summary_lines
     from ..models.material import train_material
-
-    from ..models.candidates import CANDIDATES
 
     def train():
         return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,

@@ -211,7 +211,7 @@ def _ensemble_trainer(cfg: FeatureConfig, hidden: tuple[int, ...], epochs: int):
     on the log bands' (the linear candidate's) and :data:`ENSEMBLE_MLPS` MLPs on the log
     bands' three statistics (the mlp candidate's). Each regression keeps the L2 penalty it
     chose at its first fit, as :func:`_linear_trainer` does."""
-    from .ensemble import Ensemble, Member
+    from .ensemble import Ensemble, Member, to_onnx
 
     nb, total = cfg.n_bands, cfg.total_bands
     log_cols = np.r_[0:nb, total:total + nb]
@@ -222,14 +222,12 @@ def _ensemble_trainer(cfg: FeatureConfig, hidden: tuple[int, ...], epochs: int):
                1000 * j) for j in range(ENSEMBLE_MLPS)]
 
     def train(x, y, g, classes, seed) -> Fitted:
-        from . import ensemble
-
         members = [Member(tr(x[:, cols], y, g, classes, seed + off).model, cols)
                    for tr, cols, off in views]
         m = Ensemble(members, 3 * total, list(classes))
         return Fitted(m.forward, m.n_params,
-                      lambda path, t, meta: ensemble.to_onnx(m, path, temperature=t,
-                                                             metadata=meta), m)
+                      lambda path, t, meta: to_onnx(m, path, temperature=t, metadata=meta),
+                      m)
     return train
 
 

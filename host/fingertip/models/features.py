@@ -186,8 +186,8 @@ class FeatureConfig:
         w = band_matrix(freqs, self.band_edges())
         if not self.linear_bins:
             return w
-        lin = np.linspace(self.f_lo, self.f_hi, self.linear_bins + 2)
-        return np.hstack([w, band_matrix(freqs, lin)])
+        lin = replace(self, scale="linear", n_bands=self.linear_bins, linear_bins=0)
+        return np.hstack([w, band_matrix(freqs, lin.band_edges())])
 
     def frames_for(self, seconds: float) -> int:
         """Frames whose hop spans ``seconds`` (at least 1)."""
