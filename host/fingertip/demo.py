@@ -25,7 +25,13 @@ from .plots import session_summary
 from .record import Recorder
 from .sim import VirtualFirmware
 from .sim.physics import (
-    CupStackSlide, Press, Script, Slide, VirtualStrainSensor, calibration_sweep, simulate,
+    CupStackSlide,
+    Press,
+    Script,
+    Slide,
+    VirtualStrainSensor,
+    calibration_sweep,
+    simulate,
 )
 
 log = logging.getLogger(__name__)
@@ -265,7 +271,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
 
 def _live_material(clf, x: np.ndarray, fs: float) -> str:
     """The material of a short stretch of audio, or "-" when nothing slides."""
-    from .models.features import Recording
+    from .models.vibration.features import Recording
 
     try:
         preds = clf.classify(Recording(x.astype(np.float64), fs)).predictions
@@ -277,8 +283,8 @@ def _live_material(clf, x: np.ndarray, fs: float) -> str:
 
 def _calibrate(seed: int, out: Path):
     """The paper's calibration sweep on this virtual unit, fitted and exported to ONNX."""
-    from .models.calibrate import fit_calibration, from_arrays
-    from .models.force import ForceModel
+    from .models.force.calibrate import fit_calibration, from_arrays
+    from .models.force.runtime import ForceModel
 
     sensor = VirtualStrainSensor(seed, rate_sps=80)
     # The unit at rest, averaged as `tare` does on the device, then the sweep.
@@ -294,8 +300,8 @@ def _calibrate(seed: int, out: Path):
 
 def _material_model(seed: int, out: Path):
     """A material classifier trained on simulated slides over the paper's seven materials."""
-    from .models.classify import VibrationClassifier
-    from .models.material import train_material
+    from .models.vibration.classify import VibrationClassifier
+    from .models.vibration.material import train_material
     from .sim.dataset import write_vibration
 
     write_vibration(out / "data", kind="materials", recordings_per_class=6, seconds=1.0,
@@ -308,7 +314,7 @@ def _material_model(seed: int, out: Path):
 def _material_segments(clf, audio: np.ndarray, fs: float, t0: float,
                        events: list[Event]) -> list[tuple[float, float, str]]:
     """The majority material of each contact that vibrated like a slide (not a press)."""
-    from .models.features import Recording
+    from .models.vibration.features import Recording
 
     try:
         preds = clf.classify(Recording(audio.astype(np.float64), fs)).predictions

@@ -22,8 +22,8 @@ import numpy as np
 
 from fingertip import Fingertip
 from fingertip.audio import SimulatedSource
-from fingertip.models.calibrate import fit_calibration, from_arrays
-from fingertip.models.force import ForceModel
+from fingertip.models.force.calibrate import fit_calibration, from_arrays
+from fingertip.models.force.runtime import ForceModel
 from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 
 WINDOWS = 5

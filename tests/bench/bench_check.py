@@ -17,9 +17,9 @@ import numpy as np
 from fingertip.check import run_check
 from fingertip.check.probe import DeviceProbe
 from fingertip.device import Fingertip
-from fingertip.models.calib_record import FingertipRecording, align_and_join, trials_of
-from fingertip.models.calibrate import fit_model, rmse
-from fingertip.models.weights import record_weights
+from fingertip.models.force.calib_record import FingertipRecording, align_and_join, trials_of
+from fingertip.models.force.calibrate import fit_model, rmse
+from fingertip.models.force.weights import record_weights
 from fingertip.reference import ReferenceSamples
 from fingertip.sim.bringup import GuidedScene, SimAudio, SimGuide, SimWeightsGuide, VirtualUnit
 from fingertip.sim.faults import FAULTS, PIEZO_FAULTS, parse_faults, simavr_commands

@@ -99,7 +99,7 @@ def _stft_speed() -> dict[str, float]:
     from scipy.signal import ShortTimeFFT
     from scipy.signal.windows import hann
 
-    from fingertip.models.features import FeatureConfig, Spectrogrammer, Stft
+    from fingertip.models.vibration.features import FeatureConfig, Spectrogrammer, Stft
 
     fs = 44100
     x = np.random.default_rng(1).normal(0, 0.1, fs).astype(np.float32)
@@ -140,9 +140,9 @@ def _stft_speed() -> dict[str, float]:
 
 
 def run() -> dict[str, float]:
-    from fingertip.models.classify import load_folder, paired_difference
-    from fingertip.models.material import train_material
-    from fingertip.models.shake import train_shake
+    from fingertip.models.vibration.classify import load_folder, paired_difference
+    from fingertip.models.vibration.material import train_material
+    from fingertip.models.vibration.shake import train_shake
 
     _pin()
     out: dict[str, float] = {}

@@ -19,8 +19,8 @@ import time
 
 import numpy as np
 
-from fingertip.models.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays, rmse
-from fingertip.models.force import ForceModel
+from fingertip.models.force.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays, rmse
+from fingertip.models.force.runtime import ForceModel
 from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
 
 UNIT = 1

@@ -111,7 +111,7 @@ def _added_by_publishing(tmp: Path, model_path: Path, windows: int = 3, window_s
     publishing over DDS (to a subscriber process), in alternating windows: what publishing
     adds, apart from the bridge it rides on."""
     from fingertip import Fingertip
-    from fingertip.models.force import ForceModel
+    from fingertip.models.force.runtime import ForceModel
     from fingertip.network.dds import DdsTransport
     from fingertip.network.feed import Feed
 

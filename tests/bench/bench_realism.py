@@ -126,8 +126,8 @@ def ablation_only() -> dict[str, float]:
 
 
 def _material() -> dict[str, float]:
-    from fingertip.models.classify import load_folder
-    from fingertip.models.material import train_material
+    from fingertip.models.vibration.classify import load_folder
+    from fingertip.models.vibration.material import train_material
     from fingertip.sim.dataset import write_vibration
 
     with tempfile.TemporaryDirectory(prefix="bench_realism_") as tmp:

@@ -144,8 +144,8 @@ class FingerWatch:
 
 
 def _force_model(folder: Path):
-    from fingertip.models.calibrate import fit_affine, from_arrays, model_metadata
-    from fingertip.models.force import ForceModel
+    from fingertip.models.force.calibrate import fit_affine, from_arrays, model_metadata
+    from fingertip.models.force.runtime import ForceModel
     from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 
     s = VirtualStrainSensor(0)

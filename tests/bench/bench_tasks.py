@@ -10,7 +10,6 @@ import numpy as np
 
 from fingertip.sim import experiment as ex
 
-
 _last: list = []
 """The latest run's results, for :func:`tables`."""
 

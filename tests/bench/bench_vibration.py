@@ -23,7 +23,7 @@
   and the CNN candidate alone on the knocks (its accuracy and cost).
 - Day-to-day hum on those real hits: the trainer at default options on a clean part of
   each set (split by recording), its model on the held-out hits as they are and with mains
-  hum added (:func:`fingertip.models.augment.hum`, the generic model, not the
+  hum added (:func:`fingertip.models.vibration.augment.hum`, the generic model, not the
   simulator's: 50 or 60 Hz, random harmonics, -20 to 0 dB of the hit's power).
 """
 from __future__ import annotations
@@ -113,7 +113,7 @@ def _pin() -> None:
 
 
 def _cut(ds, seconds: float):
-    from fingertip.models.features import Recording
+    from fingertip.models.vibration.features import Recording
 
     for it in ds.items:
         r = it.rec
@@ -172,9 +172,9 @@ def shifted_slide(material: str, seed: int, seconds: float = 2.0, rate: int = 80
 def shift_accuracy(model_path: Path, classes: list[str], n: int = N_SHIFT,
                    seed: int = 10_000) -> dict[str, dict[str, float]]:
     """Accuracy at 0.5 s, 1 s and the whole (2 s) slide for each shift of :data:`SHIFTS`."""
-    from fingertip.models.anytime import at_time
-    from fingertip.models.classify import VibrationClassifier
-    from fingertip.models.features import as_recording
+    from fingertip.models.vibration.anytime import at_time
+    from fingertip.models.vibration.classify import VibrationClassifier
+    from fingertip.models.vibration.features import as_recording
 
     clf = VibrationClassifier(model_path)
     out = {}
@@ -196,10 +196,10 @@ def shift_accuracy(model_path: Path, classes: list[str], n: int = N_SHIFT,
 
 
 def run() -> dict[str, float]:
-    from fingertip.models.augment import NONE, AugmentConfig
-    from fingertip.models.candidates import candidate_windows, candidates, unknown_auroc
-    from fingertip.models.classify import load_folder
-    from fingertip.models.material import train_material
+    from fingertip.models.vibration.augment import NONE, AugmentConfig
+    from fingertip.models.vibration.candidates import candidate_windows, candidates, unknown_auroc
+    from fingertip.models.vibration.classify import load_folder
+    from fingertip.models.vibration.material import train_material
     from fingertip.sim.dataset import write_vibration
 
     _pin()
@@ -230,9 +230,8 @@ def run() -> dict[str, float]:
         out["material_time_to_decision_s"] = round(ttd, 4) if ttd is not None else 99.0
         out["material_ece"] = round(r8.report["calibration"]["ece"], 4)
         ds = _cut(load_folder(root / "m8000"), 1.0)
-        from fingertip.models.candidates import choose_setup
-
-        from fingertip.models.features import FeatureConfig
+        from fingertip.models.vibration.candidates import choose_setup
+        from fingertip.models.vibration.features import FeatureConfig
 
         notch = bool(r8.report["mains_notch"]["adopted"])  # as the trainer chose
         cand = candidates(choose_setup(ds, FeatureConfig(mains_notch=notch)),
@@ -269,8 +268,8 @@ def public_sets(root: Path) -> dict[str, float]:
     warning, when the package's files are not there."""
     import logging
 
-    from fingertip.models.augment import NONE
-    from fingertip.models.material import train_material
+    from fingertip.models.vibration.augment import NONE
+    from fingertip.models.vibration.material import train_material
     from tests.bench import public_sets as ps
 
     env = os.environ.get("FINGERTIP_DRUMKITS")
@@ -313,15 +312,15 @@ def hum_shift(folder: Path, work: Path, test_fraction: float, folds: int
     """Train at default options on the clean training part of ``folder`` (split by
     recording), then answer the held-out recordings as they are and with mains hum added.
     Returns the accuracy of each (whole recording) and the trainer's notch decision."""
-    from fingertip.models.augment import hum
-    from fingertip.models.classify import (
+    from fingertip.models.vibration.augment import hum
+    from fingertip.models.vibration.classify import (
         VibrationClassifier,
         as_recording,
         load_folder,
         split_by_recording,
     )
-    from fingertip.models.features import FeatureError
-    from fingertip.models.material import train_material
+    from fingertip.models.vibration.features import FeatureError
+    from fingertip.models.vibration.material import train_material
 
     ds = load_folder(folder)
     train, test = split_by_recording(ds.labels, test_fraction, SEED)

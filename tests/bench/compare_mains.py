@@ -26,8 +26,8 @@ SHIFTS = ("held-out (new slides)", "mains hum x3", "mains hum x10", "motor noise
 
 def one(root: Path, notch: bool, real: bool) -> dict:
     """Accuracies (whole recording) with the notch ``notch``, on the sets under ``root``."""
-    from fingertip.models.classify import load_folder
-    from fingertip.models.material import train_material
+    from fingertip.models.vibration.classify import load_folder
+    from fingertip.models.vibration.material import train_material
 
     o: dict = {}
     t0 = time.perf_counter()

@@ -203,8 +203,8 @@ def test_replay_read_before_open_raises(tmp_path):
 # --- models -------------------------------------------------------------------------------
 
 def test_force_model_arguments(tmp_path):
-    from fingertip.models.calibrate import fit_affine, from_arrays, model_metadata
-    from fingertip.models.force import ForceModel
+    from fingertip.models.force.calibrate import fit_affine, from_arrays, model_metadata
+    from fingertip.models.force.runtime import ForceModel
 
     rng = np.random.default_rng(0)
     counts = rng.normal(size=(50, 4)) * 1e4

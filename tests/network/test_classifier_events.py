@@ -8,7 +8,7 @@ import signal
 import numpy as np
 import soundfile as sf
 
-from fingertip.models.material import train_material
+from fingertip.models.vibration.material import train_material
 from fingertip.record import schemas as S
 from fingertip.sim.physics import PAPER_SEVEN, Slide, simulate
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fingertip.models.calibrate import fit_model
+from fingertip.models.force.calibrate import fit_model
 
 from .conftest import start
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from fingertip.record import Recording
 from fingertip.cli.record import add_parsers, main
+from fingertip.record import Recording
 
 logging.getLogger("fingertip").setLevel(logging.INFO)
 

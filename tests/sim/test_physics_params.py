@@ -1,9 +1,8 @@
 """The parameter file: one source of truth, strictly loaded, consistent with the paper."""
 from __future__ import annotations
 
-import tomllib
-
 import pytest
+import tomllib
 
 from fingertip.sim.physics import cap_deflection_m, load, params_path
 from fingertip.sim.physics.params import from_dict

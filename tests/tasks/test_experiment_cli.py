@@ -1,9 +1,8 @@
 """``fingertip experiment``: runs, prints the paper's tables, refuses bad arguments."""
 from __future__ import annotations
 
-import re
-
 import json
+import re
 
 import pytest
 

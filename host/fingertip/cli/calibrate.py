@@ -15,13 +15,14 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from .argtypes import number
 from ..badfile import reports_bad_files
+from .argtypes import number
+
 log = logging.getLogger("fingertip")
 
 
 def _models(text: str) -> list[str]:
-    from ..models.calibrate import expand_models
+    from ..models.force.calibrate import expand_models
 
     try:
         return expand_models(text)
@@ -30,7 +31,7 @@ def _models(text: str) -> list[str]:
 
 
 def _load(args: argparse.Namespace):
-    from ..models.calibrate import CalibrationError, check_dataset, load_dataset
+    from ..models.force.calibrate import CalibrationError, check_dataset, load_dataset
 
     try:
         data = load_dataset(args.dataset, unit=args.unit,
@@ -73,7 +74,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     in N, optionally angle_deg, height_mm, trial, masks), test them on held-out cells of the
     protocol, export each to ONNX, time them with onnxruntime, and choose the fastest within
     the error bound. See docs/calibration.md."""
-    from ..models.calibrate import CalibrationError, fit_calibration
+    from ..models.force.calibrate import CalibrationError, fit_calibration
 
     data, summary = _load(args)
     if data is None:
@@ -118,7 +119,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def add_parsers(sub) -> None:
     """Add ``calibrate`` (with ``fit`` and ``check``) to ``sub``, the top-level subparsers
     of ``fingertip``."""
-    from ..models.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
+    from ..models.force.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
 
     c = sub.add_parser("calibrate", help="fit the force calibration (counts -> newtons)",
                        description="Force calibration of a fingertip from the paper's indenter "

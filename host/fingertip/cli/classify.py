@@ -16,11 +16,11 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from .argtypes import number
 from ..badfile import FILE_ERRORS, reports_bad_files
+from .argtypes import number
 
 if TYPE_CHECKING:
-    from ..models.features import FeatureConfig
+    from ..models.vibration.features import FeatureConfig
 log = logging.getLogger("fingertip")
 
 
@@ -36,7 +36,7 @@ def _hidden(text: str) -> tuple[int, ...]:
 
 
 def _models(text: str) -> tuple[str, ...]:
-    from ..models.candidates import CANDIDATES
+    from ..models.vibration.candidates import CANDIDATES
 
     out = tuple(v.strip() for v in text.split(",") if v.strip())
     bad = [v for v in out if v not in CANDIDATES]
@@ -48,15 +48,15 @@ def _models(text: str) -> tuple[str, ...]:
 
 def _user_errors():
     from ..audio import AudioError
-    from ..models.classify import DatasetError, ModelError
-    from ..models.features import FeatureError
+    from ..models.vibration.classify import DatasetError, ModelError
+    from ..models.vibration.features import FeatureError
     return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
 def _features(args: argparse.Namespace, notch: bool = True) -> FeatureConfig:
     """The feature configuration the train options ask for (the library's defaults else);
     ``notch``: whether it carries ``--mains-notch`` (the material trainer takes it apart)."""
-    from ..models.features import FeatureConfig
+    from ..models.vibration.features import FeatureConfig
 
     kw = {} if args.mains_notch is None or not notch else {"mains_notch": args.mains_notch}
     return FeatureConfig(canonical_rate=args.canonical_rate, **kw)
@@ -71,10 +71,10 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     logistic regression on log bands, an MLP, an ensemble of these, a CNN) chosen by
     cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
-    from ..models.augment import AugmentConfig
-    from ..models.candidates import CANDIDATES
-    from ..models.classifier.report_text import material_summary_lines
-    from ..models.material import train_material
+    from ..models.vibration.augment import AugmentConfig
+    from ..models.vibration.candidates import CANDIDATES
+    from ..models.vibration.classifier.report_text import material_summary_lines
+    from ..models.vibration.material import train_material
 
     def train():
         return train_material(args.folder, args.out, window_s=args.window, step_s=args.step,
@@ -94,7 +94,7 @@ def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
                   as_json: bool) -> int:
     """Run one training, then print its report as JSON or in the lines ``words`` makes of
     it, and the files written; a user error is one line and exit 2."""
-    from ..models.classify import json_safe
+    from ..models.vibration.classify import json_safe
 
     try:
         r = train()
@@ -115,8 +115,8 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
     """Train shake classifiers on FOLDER (one sub-folder per box content): 86-frame windows
     (1 s) every 0.1 s, a small ResNet CNN and an MLP, both exported to ONNX, evaluated per
     window and per shake (majority vote) on held-out recordings, with their costs."""
-    from ..models.classifier.report_text import shake_summary_lines
-    from ..models.shake import train_shake
+    from ..models.vibration.classifier.report_text import shake_summary_lines
+    from ..models.vibration.shake import train_shake
 
     models = ("cnn", "mlp") if args.model == "both" else (args.model,)
 
@@ -135,8 +135,8 @@ def _cmd_classify(args: argparse.Namespace) -> int:
     """Classify a recording (WAV, FLAC, CSV) or a live stream (a sound card, the sound card
     paired with a fingertip's serial port, or the virtual fingertip) with a model made by
     `fingertip train`: one prediction per window with its time, then the majority vote."""
-    from ..models.classify import VibrationClassifier
-    from ..models.live_classify import run_classification, sound_card_source
+    from ..models.vibration.classify import VibrationClassifier
+    from ..models.vibration.live_classify import run_classification, sound_card_source
 
     sources = [s for s in (args.file, args.audio, args.port, args.simulate) if s is not None]
     if len(sources) != 1:
@@ -209,7 +209,7 @@ def _open_forces(port: str, path: str):
     """The fingertip on ``port`` streaming into a force window of the model at ``path``;
     (None, None) after logging why not."""
     from ..device import FingertipError
-    from ..models.live_classify import ForceModelRefused, open_force_window
+    from ..models.vibration.live_classify import ForceModelRefused, open_force_window
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
 

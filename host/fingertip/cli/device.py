@@ -170,7 +170,7 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     with _open(args) as ft:
         fm = None
         if args.force_model:
-            from ..models.force_load import ModelMismatch, force_model_for
+            from ..models.force.force_load import ModelMismatch, force_model_for
 
             try:
                 fm = force_model_for(ft, args.force_model)

@@ -16,10 +16,11 @@ from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 
-from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
-from .frame_text import frame_json, frame_line
 from ..hand_args import add_hand_args, hand_spec_from_args
+from .argtypes import dispatch, number
+from .frame_text import frame_json, frame_line
+
 log = logging.getLogger("fingertip")
 
 
@@ -27,7 +28,7 @@ def load_force_model(spec: str):
     """``FILE.onnx`` (made by `fingertip calibrate fit`) or ``package.module:function`` ->
     the callable (counts -> (fx, fy[, fz]))."""
     if spec.lower().endswith(".onnx"):
-        from ..models.force import ForceModel
+        from ..models.force.runtime import ForceModel
 
         return ForceModel(spec)  # a bad file raises BadFileError (a ValueError)
     mod_name, sep, attr = spec.partition(":")
@@ -58,7 +59,6 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..device import FingertipError
     from ..hand_args import hand_audio_from_args
     from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
     from ..record.recorder import RecorderError
     from ..record.schemas import check_name
     from ..record.session import (
@@ -68,6 +68,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
         open_audio,
         record_fingertip,
     )
+    from ..transport import DeviceNotFound, TransportError
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
@@ -137,7 +138,7 @@ def _model_check(path: str):
     """``--force-model FILE.onnx`` checked against the opened fingertip (channels, units,
     serial): the model, or a one-line refusal."""
     def model_for(ft):
-        from ..models.force_load import ModelMismatch, force_model_for
+        from ..models.force.force_load import ModelMismatch, force_model_for
         from ..record.session import SessionError
 
         try:

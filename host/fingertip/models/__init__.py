@@ -1,5 +1,4 @@
-"""Models: force calibration and vibration classifiers, trained here, run with onnxruntime."""
-from .force import ForceModel, ForceStatus
-from .mlp import MLP, OnnxModel, to_onnx, train_mlp
-
-__all__ = ["MLP", "ForceModel", "ForceStatus", "OnnxModel", "to_onnx", "train_mlp"]
+"""Models, in three rooms that load alone: :mod:`.force` (the force calibration, its recording
+session, the runtime force model), :mod:`.vibration` (features, mains, augmentation, the
+classifiers and their decisions) and :mod:`.nets` (the networks and ONNX helpers both use).
+Trained here, run with onnxruntime."""

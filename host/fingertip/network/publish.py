@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..device import FingertipError
-from ..models.classify import to_float
+from ..models.vibration.classify import to_float
 from ..record.recorder import device_info
 from ..record.schemas import AUDIO_ENCODINGS
 from .feed import Feed

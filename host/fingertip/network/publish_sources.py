@@ -13,7 +13,7 @@ from ..audio import AudioSource, FileSource, SimulatedSource, SoundDeviceSource
 from ..device import Fingertip, SharedReader
 from ..device.finger import FingerView
 from ..hand_args import HandSpec
-from ..models.force_load import check_model, device_serial, force_model_for
+from ..models.force.force_load import check_model, device_serial, force_model_for
 from . import TRANSPORTS
 
 log = logging.getLogger("fingertip")
@@ -136,7 +136,7 @@ def load_classifiers(material_model: str | None, shake_model: str | None
     out = []
     for kind, path in (("material", material_model), ("shake", shake_model)):
         if path:
-            from ..models.classify import VibrationClassifier
+            from ..models.vibration.classify import VibrationClassifier
 
             out.append((kind, VibrationClassifier(path, kind=kind)))
     return out

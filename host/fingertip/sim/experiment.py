@@ -251,7 +251,7 @@ def run_shake(trials: int = 56, seed: int = 0, progress: Progress | None = None,
               config: ShakeConfig | None = None) -> ShakeTrials:
     """Shake-and-pick: per trial, the boxes' places and fills are drawn by the world; the
     targets come in random order within each pair of trials (equal counts per material)."""
-    from ..models.classify import VibrationClassifier
+    from ..models.vibration.classify import VibrationClassifier
 
     path = shake_model_path()
     clf = VibrationClassifier(path, kind="shake")

@@ -43,7 +43,8 @@ class AudioBlock:
 
 
 class ForceEstimator(Protocol):
-    """What a finger's force model must offer (a :class:`~fingertip.models.ForceModel` does)."""
+    """What a finger's force model must offer (a
+    :class:`~fingertip.models.force.runtime.ForceModel` does)."""
 
     def estimate_frame(self, frame: Frame, channels: tuple[int, ...] | None = None, *,
                        strict: bool = False): ...

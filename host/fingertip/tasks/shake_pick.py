@@ -21,8 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models.classify import Prediction, VibrationClassifier, majority_vote
-from ..models.features import as_recording
+from ..models.vibration.classify import Prediction, VibrationClassifier, majority_vote
+from ..models.vibration.features import as_recording
 from .grip import Grip, PinchConfig, PinchResult
 from .interfaces import RobotArm, RobotHand, require
 

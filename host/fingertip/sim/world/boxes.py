@@ -28,6 +28,7 @@ import numpy as np
 
 from ..dataset import TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS, TASK_MAINS_HZ, TASK_PREAMP_GAIN
 from ..physics import BoxShake, load
+from .cache import cached
 from .hand import (
     FINGERS,
     ObjectSpec,
@@ -36,7 +37,6 @@ from .hand import (
     SimObject,
     SimWorld,
 )
-from .cache import cached
 
 log = logging.getLogger(__name__)
 
@@ -153,13 +153,13 @@ def make_box_world(seed: int, *, hand_seed: int = 100) -> tuple[BoxWorld, SimHan
 
 
 def shake_model_path(recordings_per_class: int = 20) -> Path:
-    """The shake classifier (an MLP over 86-frame windows; :mod:`fingertip.models.shake`),
+    """The shake classifier (an MLP over 86-frame windows; :mod:`fingertip.models.vibration.shake`),
     trained once on simulated shakes like the paper's training set (20 per class: screws,
     rubber bands, empty; 5.6 s; grips 1-2 N; default fills and amplitude) and cached under
     :func:`cache_dir`. Deterministic: about 5 s the first time."""
     from ... import __version__, models
-    from ...models.fit_cache import fit_key
-    from ...models.shake import train_shake
+    from ...models.nets.fit_cache import fit_key
+    from ...models.vibration.shake import train_shake
     from .. import dataset, physics
     from ..dataset import write_vibration
 
