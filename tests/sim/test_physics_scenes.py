@@ -20,7 +20,6 @@ from fingertip.sim.physics import (
     strain,
     vibration,
 )
-from fingertip.sim.physics.bench import STANDARD_SCENES, scene_realtime_factors
 
 
 @pytest.fixture
@@ -126,9 +125,3 @@ def test_calibration_sweep_follows_the_paper():
     assert len(set(first)) > 1
     two = calibration_sweep(seed=1, samples_per_step=3, angles_deg=(0,), heights_mm=(0,))
     assert len(two) == 120
-
-
-def test_realtime_factors_are_reported_for_every_scene():
-    figures = scene_realtime_factors(repeats=1)
-    assert set(figures) == {f"sim_realtime_factor_{k}" for k in STANDARD_SCENES}
-    assert all(v > 0 for v in figures.values())

@@ -20,16 +20,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..events.reflex import (
+from fingertip.events.reflex import (
     ForceConfig,
     ForceOnlyContact,
     FusedConfig,
     FusedContact,
     OnsetDetector,
 )
-from ..protocol.codec import encode
-from ..protocol.messages import Sample
-from .physics.touch import Session, force_frames, render_session
+from fingertip.protocol.codec import encode
+from fingertip.protocol.messages import Sample
+from fingertip.sim.physics.touch import Session, force_frames, render_session
 
 AUDIO_BLOCK = 64
 AUDIO_PATH_S = 0.001

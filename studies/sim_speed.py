@@ -8,8 +8,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-from .scenes import BoxShake, ContactMakeBreak, CupStackSlide, Press, Scene, Slide
-from .simulate import simulate
+from fingertip.sim.physics import (
+    BoxShake,
+    ContactMakeBreak,
+    CupStackSlide,
+    Press,
+    Scene,
+    Slide,
+    simulate,
+)
 
 STANDARD_SCENES: dict[str, Callable[[], Scene]] = {
     "press": lambda: Press(angle_deg=20, height_mm=2, peak_n=5.0),

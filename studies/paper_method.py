@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .physics import Realism, Sweep, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, Sweep, VirtualStrainSensor, calibration_sweep
 
 log = logging.getLogger(__name__)
 
@@ -117,7 +117,7 @@ def mse(pred: np.ndarray, force: np.ndarray, *, per_component: bool = False) -> 
 def paper_force_model(counts: np.ndarray, force: np.ndarray, *, seed: int = 0,
                       hidden: tuple[int, ...] = PAPER_FORCE_HIDDEN, epochs: int = 600):
     """The paper's MLP: standardised channels -> (Fx, Fy). Returns a predict function."""
-    from ..models.mlp import train_mlp
+    from fingertip.models.mlp import train_mlp
 
     m = train_mlp(counts, force, hidden=hidden, epochs=epochs, batch=64, lr=3e-3,
                   patience=40, seed=seed)
@@ -131,8 +131,8 @@ def our_force_model(session: Session, train: np.ndarray, *, models=None, seed: i
     as a predict function (of the counts ``our_counts`` gives) and the chosen model's name.
     ``retare``: counts tared before each contact (``Session.retared_counts``) instead of
     once per session."""
-    from ..models.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays
-    from ..models.force import ForceModel
+    from fingertip.models.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays
+    from fingertip.models.force import ForceModel
 
     sw = session.sweep
     counts = our_counts(session, retare)
@@ -245,7 +245,7 @@ def paper_vibration(recordings: list[np.ndarray], labels: np.ndarray, classes: l
 
     ``split``: "windows" (the paper's: a random split of the windows, whose neighbours from
     the same recording overlap the test ones) or "recordings" (whole recordings held out)."""
-    from ..models.mlp import train_mlp
+    from fingertip.models.mlp import train_mlp
 
     per = [windows(spectrogram(x)) for x in recordings]
     x = np.concatenate(per)
@@ -287,7 +287,7 @@ def paper_votes(recordings: list[np.ndarray], labels: np.ndarray, classes: list[
     held out once (``folds`` folds by recording, so no window of a test shake or its
     neighbours is trained on); the vote's accuracy is what compares with the paper's
     94.64 % (53 of 56 boxes told apart), not the per-window accuracy of a random split."""
-    from ..models.mlp import train_mlp
+    from fingertip.models.mlp import train_mlp
 
     per = [windows(spectrogram(x)) for x in recordings]
     labels = np.asarray(labels)
@@ -340,8 +340,8 @@ def task_shakes(classes: list[str], per_box: int = 28, *, seed: int = 1,
     (``TASK_PREAMP_GAIN``, ``TASK_MAINS_HZ``, as ``sim.world.boxes`` draws them; off: the
     parameter file's). Every draw happens whatever the switches, so switching one off leaves
     the others' draws alone. ``seed`` must differ from the training set's."""
-    from .dataset import TASK_MAINS_HZ, TASK_PREAMP_GAIN, plan_vibration
-    from .physics import AudioChain, load, simulate
+    from fingertip.sim.dataset import TASK_MAINS_HZ, TASK_PREAMP_GAIN, plan_vibration
+    from fingertip.sim.physics import AudioChain, load, simulate
 
     missing = [b for b in boxes if b not in classes]
     if missing:
@@ -382,7 +382,7 @@ def paper_task_votes(train: tuple[list[np.ndarray], np.ndarray, list[str]], test
     """The paper's protocol for its shake task: the classifier is trained once on the
     automated collection (``train``: recordings, labels, classes, e.g. 20 per class), then
     each test shake of the task gets one majority vote of its 10 Hz window predictions."""
-    from ..models.mlp import train_mlp
+    from fingertip.models.mlp import train_mlp
 
     xs, ys, classes = train
     per = [windows(spectrogram(x)) for x in xs]

@@ -24,11 +24,11 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 
-from ..events.contact_set import ContactSet
-from .experiment import PINCH_OBJECTS
-from ..tasks.pinch import PinchConfig, pinch
-from .world.hand import FINGERS, make_world
-from .world.approach_hand import ApproachHand
+from fingertip.events.contact_set import ContactSet
+from fingertip.sim.experiment import PINCH_OBJECTS
+from fingertip.tasks.pinch import PinchConfig, pinch
+from fingertip.sim.world.hand import FINGERS, make_world
+from fingertip.sim.world.approach_hand import ApproachHand
 
 log = logging.getLogger(__name__)
 
