@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fingertip.sim.simavr import REPO, FirmwareSim, open_fingertip
+from fingertip.sim.device.simavr import REPO, FirmwareSim, open_fingertip
 
 F_CPU = 16_000_000
 RATES = (115200, 500000, 1000000)

@@ -32,7 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
-from fingertip.sim.physics import Realism, Sweep, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import Sweep, calibration_sweep
 
 log = logging.getLogger(__name__)
 

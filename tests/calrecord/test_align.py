@@ -9,7 +9,7 @@ import pytest
 from fingertip.models.align import AlignmentError, estimate_offset, join
 from fingertip.models.calib_record import FingertipRecording, align_and_join, fit_joined, trials_of
 from fingertip.reference import ReferenceError, ReferenceSamples
-from fingertip.sim.reference_run import simulate_reference_run
+from fingertip.sim.device.reference_rig import simulate_reference_run
 
 
 @pytest.fixture(scope="module")

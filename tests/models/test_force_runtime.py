@@ -22,7 +22,8 @@ from fingertip.models.calibrate import (
 )
 from fingertip.cli.calibrate import add_parsers
 from fingertip.models.force import FrameForce, ForceModel, ForceStatus, InvalidCounts
-from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 
 
 @pytest.fixture(scope="module")

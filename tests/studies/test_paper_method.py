@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 from studies.paper_method import (
     PAPER_SPLIT,
     TaskShakes,

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from .argtypes import number
 from ..badfile import reports_bad_files
-from ..sim.faults import FAULTS
+from ..sim.device.faults import FAULTS
 
 log = logging.getLogger("fingertip")
 
@@ -27,12 +27,12 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     import threading
 
     from ..sim import VirtualFirmware
-    from ..sim.pty_device import PtyDevice
+    from ..sim.device.pty_device import PtyDevice
     from ..sim.physics import Idle, VirtualStrainSensor
 
     if args.fault:
-        from ..sim.bringup import VirtualUnit
-        from ..sim.faults import parse_faults
+        from ..sim.device.bringup import VirtualUnit
+        from ..sim.device.faults import parse_faults
 
         if args.channels != 4:
             log.error("--fault needs the 4-channel fingertip")

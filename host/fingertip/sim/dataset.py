@@ -45,11 +45,11 @@ from .physics import (
     Scene,
     Slide,
     VirtualStrainSensor,
-    calibration_sweep,
     load,
     params_path,
     simulate,
 )
+from .device.calibration_rig import calibration_sweep
 from .physics.vibration import good_fft_size
 
 GENERATOR = "fingertip sim dataset"

@@ -9,11 +9,10 @@
 - :mod:`.vibration`, :mod:`.materials`: dynamic force at the nail -> cap modes -> piezo ->
   preamp (gain, clipping, hum, noise) -> sound-card samples.
 - :mod:`.scenes`, :mod:`.simulate`: scenes declare the signals they need; only those are
-  computed. :mod:`.calibration`: the paper's calibration sweep. :mod:`.bench`: cost.
+  computed.
 
 Imports numpy and the standard library only. See docs/simulation.md.
 """
-from .calibration import COLUMNS, Sweep, calibration_sweep
 from .materials import MATERIALS, PAPER_SEVEN, Material, material
 from .params import FingertipParams, load, params_path
 from .realism import Realism
@@ -38,10 +37,10 @@ from .strain import Effects, UnitVariation, VirtualStrainSensor, cap_deflection_
 from .vibration import AudioChain, Excitation
 
 __all__ = [
-    "BOX_CONTENTS", "COLUMNS", "FORCE", "MATERIALS", "PAPER_SEVEN", "SIGNALS", "VIBRATION",
+    "BOX_CONTENTS", "FORCE", "MATERIALS", "PAPER_SEVEN", "SIGNALS", "VIBRATION",
     "AudioChain", "AudioTrace", "BoxShake", "ContactMakeBreak", "CupStackSlide", "CustomForce",
     "Effects", "Excitation", "FingertipParams", "ForceTrace", "Forces", "Idle", "Material",
-    "Press", "Realism", "Scene", "Script", "SimResult", "Slide", "Sweep", "UnitVariation",
-    "VirtualStrainSensor", "calibration_sweep", "cap_deflection_m", "load", "material",
+    "Press", "Realism", "Scene", "Script", "SimResult", "Slide", "UnitVariation",
+    "VirtualStrainSensor", "cap_deflection_m", "load", "material",
     "params_path", "simulate",
 ]

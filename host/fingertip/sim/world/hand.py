@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ...device import Frame
-from ..physics import AudioChain, VirtualStrainSensor, calibration_sweep
+from ..physics import AudioChain, VirtualStrainSensor
+from ..device.calibration_rig import calibration_sweep
 from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from .audio_bus import AudioBus
 from .cache import cached

@@ -16,7 +16,7 @@ from __future__ import annotations
 import threading
 import time
 
-from ..transport import TransportClosed
+from ...transport import TransportClosed
 from .virtual_firmware import VirtualFirmware
 
 MAX_WAIT_S = 0.05

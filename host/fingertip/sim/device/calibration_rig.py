@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .realism import Realism, RealismParams
-from .strain import VirtualStrainSensor
+from ..physics.realism import Realism, RealismParams
+from ..physics.strain import VirtualStrainSensor
 
 COLUMNS = ("c0", "c1", "c2", "c3", "fx_n", "fy_n", "angle_deg", "height_mm")
 

@@ -19,7 +19,7 @@ from typing import Any
 
 log = logging.getLogger(__name__)
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[4]
 HARNESS = REPO / "firmware" / "sim" / "build" / "fingertip-sim"
 ELF = {
     4: REPO / "firmware" / "build" / "fw4" / "fingertip.elf",
@@ -239,8 +239,8 @@ def open_fingertip(sim: FirmwareSim, port: str | Path | None = None, **kwargs: A
     """A :class:`fingertip.Fingertip` on the harness's pty (or ``port``, e.g. its ``link``),
     opened before the firmware boots (pyserial's open() flushes input, which would eat the
     boot message)."""
-    from ..device import Fingertip  # the device layer sits above sim: import at use
-    from ..transport import open_serial
+    from ...device import Fingertip  # the device layer sits above sim: import at use
+    from ...transport import open_serial
 
     started = False
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from fingertip.audio import SoundDeviceSource
-from fingertip.sim.audio_feed import AudioFeed, AudioFeedError, on_16bit_grid, play
+from fingertip.sim.device.audio_feed import AudioFeed, AudioFeedError, on_16bit_grid, play
 from fingertip.sim.dataset import resample
 from fingertip.sim.physics import Idle, Slide, simulate
 from tests.audio.conftest import pulse_server  # noqa: F401  (the private PulseAudio server)

@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..reference.rdt import (
+from ...reference.rdt import (
     CMD_BIAS,
     CMD_START,
     CMD_START_BUFFERED,

@@ -199,7 +199,7 @@ class PtyDevice:
 def virtual_fingertip_ports(n: int, seed: int, stack: contextlib.ExitStack) -> list[str]:
     """Start ``n`` idle 4-channel virtual fingertips (unit ``seed + i`` each), each on its
     own pty closed with ``stack``, and return their ports."""
-    from .physics import Idle, VirtualStrainSensor
+    from ..physics import Idle, VirtualStrainSensor
 
     ports = []
     for i in range(n):

@@ -16,7 +16,7 @@ from pathlib import Path
 LIB_NAME = "libfingertip_device.so"
 ENV_VAR = "FINGERTIP_DEVICE_LIB"
 """Path of the library to load instead of the checkout's build."""
-_ROOT = Path(__file__).resolve().parents[3]
+_ROOT = Path(__file__).resolve().parents[4]
 FIRMWARE_DIR = _ROOT / "firmware"
 DEFAULT_PATH = FIRMWARE_DIR / "build" / "host" / LIB_NAME
 _SOURCE_DIRS = ("lib/fingertip_core", "lib/fingertip_protocol", "hostlib")

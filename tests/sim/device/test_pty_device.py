@@ -12,7 +12,7 @@ import time
 
 from fingertip.protocol import Ack, Ping, Sample, Start, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 
 def _read_for(fd: int, seconds: float) -> bytes:

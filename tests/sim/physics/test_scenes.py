@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from fingertip.sim.physics import (
-    COLUMNS,
     BoxShake,
     CupStackSlide,
     CustomForce,
@@ -15,11 +14,11 @@ from fingertip.sim.physics import (
     Script,
     Slide,
     VirtualStrainSensor,
-    calibration_sweep,
     simulate,
     strain,
     vibration,
 )
+from fingertip.sim.device.calibration_rig import COLUMNS, calibration_sweep
 
 
 @pytest.fixture

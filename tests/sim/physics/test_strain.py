@@ -9,15 +9,8 @@ import pytest
 
 from fingertip.protocol import INT24_MAX, INT24_MIN, Sample, Start, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.physics import (
-    Effects,
-    Press,
-    Realism,
-    VirtualStrainSensor,
-    calibration_sweep,
-    load,
-    simulate,
-)
+from fingertip.sim.physics import Effects, Press, Realism, VirtualStrainSensor, load, simulate
+from fingertip.sim.device.calibration_rig import calibration_sweep
 from fingertip.sim.physics.scan import affine_scan, play_scan
 
 NO_SHUNT = Effects(hysteresis=False, creep=False, thermal=False, noise=False, offsets=False,

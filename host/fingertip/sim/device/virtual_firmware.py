@@ -2,7 +2,7 @@
 lib/fingertip_protocol) on a simulated board, through the device library (:mod:`.device_lib`).
 
 No I/O and no clock of its own: the caller advances device time and moves the bytes, so the
-same object runs behind a pty in real time (:mod:`fingertip.sim.pty_device`), inside a test
+same object runs behind a pty in real time (:mod:`fingertip.sim.device.pty_device`), inside a test
 as fast as the library goes, or in lock-step with a physics model. The chips' inputs come
 from ``source`` (device time in microseconds -> each chip's input in counts at gain 128),
 called only when the chips are read. The firmware-in-the-loop tests compare its output with
@@ -14,7 +14,7 @@ import ctypes
 import weakref
 from collections.abc import Callable, Sequence
 
-from ..protocol.messages import STATS_FIELDS
+from ...protocol.messages import STATS_FIELDS
 from . import device_lib
 
 CountsSource = Callable[[int], Sequence[float]]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bringup import GuidedScene, VirtualUnit
-from .physics import VirtualStrainSensor
+from ..physics import VirtualStrainSensor
 from .pty_device import PtyDevice
 from .rdt_server import RdtServer
 
@@ -67,7 +67,7 @@ def simulate_reference_run(seed: int = 0, duration_s: float = 120.0, *, delay_s:
     fr = scene.forces(ts[keep])
     f_ref = np.column_stack([fr.xy, fr.z]) + rng.normal(0, noise_n, (int(keep.sum()), 3))
     arrival = ts[keep] + delay_s + rng.exponential(jitter_s, int(keep.sum()))
-    from ..reference.rdt import smooth_arrivals
+    from ...reference.rdt import smooth_arrivals
 
     t_ref = smooth_arrivals(np.flatnonzero(keep).astype(float), arrival)
     return ReferenceRun(t_ft, counts, true, t_ref, f_ref, delay_s, scene)

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .faults import Fault, audio_settings, dead_mask, loosen, wrap_source
-from .physics import AudioChain, Excitation, Forces, VirtualStrainSensor
-from .physics.vibration import half_sine, place
+from ..physics import AudioChain, Excitation, Forces, VirtualStrainSensor
+from ..physics.vibration import half_sine, place
 from .virtual_firmware import VirtualFirmware
 
 PRESS_N = 2.0
@@ -176,7 +176,7 @@ class SimWeightsGuide:
 
     def place(self, direction: str, index: int) -> float | None:
         # The procedure's directions and timing live in the layer above: import at use.
-        from ..models.weights import DIRECTIONS, G, RECORD_S, SETTLE_S
+        from ...models.weights import DIRECTIONS, G, RECORD_S, SETTLE_S
 
         if index >= len(self.masses):
             return None

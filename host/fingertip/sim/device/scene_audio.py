@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..audio import SimulatedSource
-from .physics import BOX_CONTENTS, BoxShake, Slide, material, simulate
+from ...audio import SimulatedSource
+from ..physics import BOX_CONTENTS, BoxShake, Slide, material, simulate
 
 
 def scene_audio_source(name: str, kind: str, duration: float | None = None,

@@ -8,7 +8,7 @@ import pytest
 from fingertip import Fingertip
 from fingertip.protocol import GetInfo, Info, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.memory_link import MemoryLink
+from fingertip.sim.device.memory_link import MemoryLink
 from fingertip.transport import ByteStream, TransportClosed
 
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 from fingertip.sim.physics import realism as rl
 from fingertip.sim.physics.strain import Effects
 
