@@ -9,18 +9,20 @@ import pytest
 
 from fingertip.protocol import INT24_MAX, INT24_MIN, Sample, Start, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.physics import Effects, Press, Realism, VirtualStrainSensor, load, simulate
+from fingertip.sim.physics import (
+    Press,
+    Realism,
+    VirtualStrainSensor,
+    cap_deflection_m,
+    load,
+    simulate,
+)
 from fingertip.sim.device.calibration_rig import calibration_sweep
 from fingertip.sim.physics.scan import affine_scan, play_scan
 
-NO_SHUNT = Effects(hysteresis=False, creep=False, thermal=False, noise=False, offsets=False,
-                   shunt=False)
-
-
-def nominal(**effects) -> VirtualStrainSensor:
-    """The nominal unit with the model's own effects only (none of the realism sources)."""
-    return VirtualStrainSensor(variation=False, effects=dataclasses.replace(NO_SHUNT, **effects),
-                               realism=Realism.none())
+def nominal(**on) -> VirtualStrainSensor:
+    """The nominal unit with nothing but the model's imperfections named in ``on``."""
+    return VirtualStrainSensor(variation=False, realism=dataclasses.replace(Realism.bare(), **on))
 
 
 # --- closed form ------------------------------------------------------------------------------
@@ -46,7 +48,7 @@ def test_surface_strain_is_the_bending_formula(angle_deg, height_mm):
 
 def test_composite_section_and_axial_term():
     p = load().replace(geometry={"prism_core_side_mm": 4.0})
-    s = VirtualStrainSensor(variation=False, effects=NO_SHUNT, params=p)
+    s = VirtualStrainSensor(variation=False, realism=Realism.bare(), params=p)
     ei = 3.0e9 * 0.004 ** 4 / 12 + 26e6 * (0.006 ** 4 - 0.004 ** 4) / 12
     eps = s.surface_strain([1.0, 0.0], 0.0)[0]
     assert eps[2] == pytest.approx(1.0 * 14.5e-3 * 3e-3 / ei, rel=1e-12)
@@ -77,7 +79,7 @@ def test_bridge_is_the_exact_quarter_bridge():
     x = p.gauge.gauge_factor * eps
     np.testing.assert_allclose(v, p.hx711.excitation_v * x / (4 + 2 * x), rtol=1e-12, atol=1e-18)
     # With real resistors: the general two-divider formula, lead resistance in the gauge arm.
-    s2 = VirtualStrainSensor(5, effects=Effects(thermal=False))
+    s2 = VirtualStrainSensor(5, realism=Realism(thermal_response=False))
     u = s2.unit
     rg = u.gauge_ohm * (1 + u.gauge_factor * eps) + p.bridge.lead_resistance_ohm
     rc = u.completion_ohm
@@ -120,8 +122,8 @@ def test_scans_match_their_recurrences():
 
 def test_linear_at_a_fixed_angle_without_hysteresis_and_creep():
     # The room's temperature drift is no non-linearity: hold the temperature.
-    s = VirtualStrainSensor(2, effects=Effects(hysteresis=False, creep=False),
-                            realism=Realism(thermal=False))
+    s = VirtualStrainSensor(2, realism=Realism(thermal=False, hysteresis=False,
+                                               short_creep=False, creep=False, mount=False))
     sw = calibration_sweep(s, seed=2, angles_deg=(-30, 0, 40), heights_mm=(2,))
     for angle in (-30, 0, 40):
         m = sw.angle_deg == angle
@@ -163,7 +165,7 @@ def test_hysteresis_loop_has_positive_area_only_when_on():
 
 
 def test_creep_rises_after_a_load_step_and_recovers():
-    s = nominal(creep=True)
+    s = nominal(short_creep=True)
     tau, frac = s.unit.creep_tau_s[2], s.unit.creep_fraction[2]
     t = np.arange(0, 30, 0.1)
     load_on = (t < 15).astype(float) * 4.0
@@ -179,10 +181,10 @@ def test_creep_rises_after_a_load_step_and_recovers():
 
 def test_temperature_drift_moves_offset_and_span():
     # The gauges' own thermal output (no completion-resistor TCR: realism source "thermal").
-    ref = VirtualStrainSensor(4, effects=Effects(noise=False, hysteresis=False, creep=False),
-                              temperature_c=25.0, realism=Realism(thermal=False))
-    warm = VirtualStrainSensor(4, effects=Effects(noise=False, hysteresis=False, creep=False),
-                               temperature_c=26.0, realism=Realism(thermal=False))
+    held = Realism(thermal=False, hx711_noise=False, hysteresis=False, short_creep=False,
+                   creep=False, mount=False)
+    ref = VirtualStrainSensor(4, temperature_c=25.0, realism=held)
+    warm = VirtualStrainSensor(4, temperature_c=26.0, realism=held)
     zero = warm.counts([0, 0], 0, 0.0) - ref.counts([0, 0], 0, 0.0)
     # (PLA CTE - steel compensation) ~ 57 ue/K of apparent strain, ~1.1e3 counts per ue.
     assert np.all((zero > 45_000) & (zero < 85_000))
@@ -206,8 +208,8 @@ def test_saturates_at_the_24_bit_limits():
 def test_noise_follows_the_hx711_rate():
     for rate, nv in ((10, 50e-9), (80, 90e-9)):
         s = VirtualStrainSensor(variation=False, rate_sps=rate,
-                                effects=Effects(hysteresis=False, creep=False, offsets=False),
-                                realism=Realism().only("hx711_noise"))
+                                realism=Realism(hysteresis=False, short_creep=False,
+                                                offsets=False).only("hx711_noise"))
         c = s.counts_batch(np.zeros((4000, 2)), 0.0, np.arange(4000) / rate)
         expected = nv * s.params.hx711.counts_per_volt
         assert c.std(axis=0) == pytest.approx(np.full(4, expected), rel=0.1)
@@ -296,3 +298,10 @@ def test_feeds_the_virtual_firmware():
     np.testing.assert_array_equal([m.values for m in samples], direct.counts)
     peak = int(np.argmax(direct.fy))
     assert samples[peak].values[1] - samples[0].values[1] < -300_000   # +y face compressed
+
+
+def test_the_cap_stays_clear_of_the_prism_at_full_load():
+    p = load()
+    d = cap_deflection_m(p, 5.0, 0.0)
+    assert d["gap_closure"] < p.geometry.cap_gap_mm * 1e-3 / 10
+    assert 0 < d["nail"] < 1e-3

@@ -1,24 +1,23 @@
 """The fingertip's parameters: ``fingertip.toml`` (shipped in this package) as frozen dataclasses.
 
-The TOML file is the one source of truth for the mechanical and electrical parameters; the CAD
-reads the same file. Field names equal the TOML keys (units in the names); SI values that the
-models need are derived properties. Unknown or missing keys are errors, so the file and the
-code cannot drift apart silently.
+The TOML file is the one source of truth for the fingertip's dimensions, parts and their
+mechanical and electrical properties: the simulator (``fingertip.sim.physics``), the CAD
+(``mechanical/fingertip_cad``) and the PCB generator (``pcb/tools``) all read it here. Field
+names equal the TOML keys (units in the names); SI values that the models need are derived
+properties. The file is read by :mod:`.tables` (unknown or missing keys are errors).
+
+Standard library only: the PCB generator loads this package by path.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python 3.10: the same parser as the tomli package
-    import tomli as tomllib  # type: ignore[no-redef]
+from .tables import read_tables, tomllib
 
 PARAMS_FILE = "fingertip.toml"
 SCHEMA = 1
@@ -26,7 +25,7 @@ SCHEMA = 1
 
 def params_path() -> Path:
     """Path of the shipped TOML file (for tools such as the CAD that read it directly)."""
-    return Path(str(resources.files(__package__).joinpath(PARAMS_FILE)))
+    return Path(__file__).with_name(PARAMS_FILE)
 
 
 @dataclass(frozen=True)
@@ -348,26 +347,8 @@ def section_rigidity(side_m: float, core_side_m: float, e_core: float, e_shell: 
     return e_core * i_core + e_shell * (i_out - i_core)
 
 
-def _build(cls: type, table: dict[str, Any], where: str) -> Any:
-    names = {f.name for f in fields(cls)}
-    unknown, missing = set(table) - names, names - set(table)
-    if unknown or missing:
-        raise ValueError(f"{where}: unknown keys {sorted(unknown)}, missing keys {sorted(missing)}")
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in table.items()}
-    return cls(**values)
-
-
 def from_dict(data: dict[str, Any], where: str = PARAMS_FILE) -> FingertipParams:
-    if data.get("schema") != SCHEMA:
-        raise ValueError(f"{where}: schema {data.get('schema')!r}, expected {SCHEMA}")
-    tables = {k: v for k, v in data.items() if k != "schema"}
-    unknown = set(tables) - set(_SECTIONS)
-    missing = set(_SECTIONS) - set(tables)
-    if unknown or missing:
-        raise ValueError(f"{where}: unknown tables {sorted(unknown)}, "
-                         f"missing tables {sorted(missing)}")
-    p = FingertipParams(**{k: _build(cls, tables[k], f"{where} [{k}]")
-                           for k, cls in _SECTIONS.items()})
+    p = FingertipParams(**read_tables(data, _SECTIONS, where, SCHEMA))
     _check(p, where)
     return p
 
@@ -479,5 +460,4 @@ def load(path: str | Path | None = None) -> FingertipParams:
 
 @lru_cache(maxsize=1)
 def _default() -> FingertipParams:
-    text = resources.files(__package__).joinpath(PARAMS_FILE).read_text(encoding="utf-8")
-    return from_dict(tomllib.loads(text))
+    return from_dict(tomllib.loads(params_path().read_text(encoding="utf-8")))
