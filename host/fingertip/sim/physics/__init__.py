@@ -17,13 +17,10 @@ from .materials import MATERIALS, PAPER_SEVEN, Material, material
 from ...hardware import FingertipParams, load, params_path
 from .realism import Realism
 from .scenes import (
-    BOX_CONTENTS,
     FORCE,
     SIGNALS,
     VIBRATION,
-    BoxShake,
     ContactMakeBreak,
-    CupStackSlide,
     CustomForce,
     Forces,
     Idle,
@@ -32,6 +29,7 @@ from .scenes import (
     Script,
     Slide,
 )
+from .task_scenes import BOX_CONTENTS, BoxShake, CupStackSlide
 from .simulate import AudioTrace, ForceTrace, SimResult, simulate
 from .strain import UnitVariation, VirtualStrainSensor, cap_deflection_m
 from .vibration import AudioChain, Excitation
