@@ -1,5 +1,5 @@
-"""The CAD's parameters: the hardware file the simulator reads too, overrides, impossible sets refused,
-and the prism's strain per newton from the very geometry the CAD builds."""
+"""The CAD's parameters: the hardware file the simulator reads too, overrides, impossible sets
+refused, and the prism's strain per newton from the very geometry the CAD builds."""
 from __future__ import annotations
 
 import pytest
