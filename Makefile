@@ -42,7 +42,7 @@ help:
 	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
 	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
-	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
+	@echo "  make lint         ruff on host/, tests/, studies/, pcb/ and mechanical/"
 	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
 	@echo "  make cad          STL, STEP and PNG of every part into build/cad (CAD_ARGS=--set ...)"
 	@echo "  make vectors      regenerate tests/vectors/protocol_v1.json"
@@ -125,7 +125,7 @@ sim: system-packages
 	$(MAKE) --no-print-directory -C firmware/sim
 
 lint: venv
-	$(VENV)/bin/ruff check host tests pcb mechanical
+	$(VENV)/bin/ruff check host tests pcb mechanical studies
 
 # pytest exits 5 when it collected nothing: that must fail, never pass as "green".
 test-python: venv venv-fab pcb-tools hostlib

@@ -35,7 +35,7 @@ def vectors() -> dict:
 @pytest.fixture
 def fil_builds() -> None:
     """Fail clearly when the simavr harness or the 4-channel firmware has not been built."""
-    from fingertip.sim.simavr import HarnessError, firmware_elf, harness_binary
+    from fingertip.sim.device.simavr import HarnessError, firmware_elf, harness_binary
 
     try:
         harness_binary()

@@ -1,5 +1,5 @@
 /* The fingertip device (lib/fingertip_core on a simulated board) as a C library for the host:
- * what host/fingertip/sim/virtual_firmware.py loads with ctypes. Built by
+ * what host/fingertip/sim/device/virtual_firmware.py loads with ctypes. Built by
  * `make -C firmware hostlib` into firmware/build/host/libfingertip_device.so.
  *
  * Time is device time in microseconds, 64 bits (the firmware sees micros(): 4 us steps,

@@ -1,6 +1,6 @@
 // A simulated board for the device logic on a PC: the Hal of lib/fingertip_core with a
 // settable clock, HX711 chips that convert on their own schedule, and UART byte queues.
-// The virtual fingertip (host/fingertip/sim/virtual_firmware.py) drives lib/fingertip_core
+// The virtual fingertip (host/fingertip/sim/device/virtual_firmware.py) drives lib/fingertip_core
 // through it, so the same C++ runs on the Uno, in simavr and on the host.
 #ifndef FINGERTIP_HOSTLIB_SIM_BOARD_H
 #define FINGERTIP_HOSTLIB_SIM_BOARD_H

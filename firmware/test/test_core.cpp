@@ -313,7 +313,7 @@ void checkNack(const Msg& m, uint16_t rid, uint8_t cmd, NackError e) {
 
 TEST_CASE("boot: lone 0x00, INFO (reason 1, seq 0), LOG; exact bytes") {
   Bench b(4, 0, 1);
-  // Same bytes as host/fingertip/sim/virtual_firmware.py VirtualFirmware(4).boot().
+  // Same bytes as host/fingertip/sim/device/virtual_firmware.py VirtualFirmware(4).boot().
   CHECK(hex(b.boot_bytes) ==
         "0002820102010102010101010107010104500180010101010101010101010101010103"
         "75db00038601220166696e67657274697020667720302e312e302c2034206368616e6e65"

@@ -24,15 +24,8 @@ from .events import Event, contact_intervals, vibration_onsets
 from .plots import session_summary
 from .record import Recorder
 from .sim import VirtualFirmware
-from .sim.physics import (
-    CupStackSlide,
-    Press,
-    Script,
-    Slide,
-    VirtualStrainSensor,
-    calibration_sweep,
-    simulate,
-)
+from .sim.physics import CupStackSlide, Press, Script, Slide, VirtualStrainSensor, simulate
+from .sim.device.calibration_rig import calibration_sweep
 
 log = logging.getLogger(__name__)
 
@@ -86,7 +79,7 @@ class _Live:
 
 def _firmware_device(sensor: VirtualStrainSensor, scene, duration_s: float):
     """The real firmware in simavr, its inputs following the physics on a fine grid."""
-    from .sim.simavr import FirmwareSim, open_fingertip
+    from .sim.device.simavr import FirmwareSim, open_fingertip
 
     sim = FirmwareSim(4, throttle=1.0).start()
     # Until the scene is armed: the unloaded unit, with the HX711's noise (the harness's own
@@ -116,7 +109,7 @@ def _firmware_device(sensor: VirtualStrainSensor, scene, duration_s: float):
 def _python_device(sensor: VirtualStrainSensor, scene, duration_s: float):
     """The firmware's device logic built for the host (VirtualFirmware) on a pty, reading
     the physics at each conversion."""
-    from .sim.pty_device import PtyDevice
+    from .sim.device.pty_device import PtyDevice
 
     start = {"us": 1 << 62}  # scene start in device time: far away until armed
     src_inner: dict = {}
@@ -148,7 +141,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     duration = scene.duration_s + 0.5
     sensor = VirtualStrainSensor(seed, rate_sps=80)
     if use_firmware is None:
-        from .sim.simavr import HarnessError, firmware_elf, harness_binary
+        from .sim.device.simavr import HarnessError, firmware_elf, harness_binary
         try:
             harness_binary()
             firmware_elf(4)

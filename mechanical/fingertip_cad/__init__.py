@@ -1,7 +1,7 @@
 """Parametric CAD of the fingertip: base, prism, cap with fingernail, skin and two-part mold.
 
 Every dimension comes from the one parameter file shared with the virtual fingertip
-(``fingertip.sim.physics.params``, ``fingertip.toml``): :mod:`.config` loads it (optionally
+(``fingertip.hardware.params``, ``fingertip.toml``): :mod:`.config` loads it (optionally
 from another path and with ``section.key=value`` overrides) and :mod:`.dims` turns it into the
 derived dimensions the parts use. CadQuery is imported only by the modules that build solids
 (never by the ``fingertip`` host package), so the host install stays small.

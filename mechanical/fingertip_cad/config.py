@@ -11,7 +11,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from fingertip.sim.physics.params import FingertipParams, from_dict, params_path
+from fingertip.hardware.params import FingertipParams, from_dict, params_path
 
 try:
     import tomllib

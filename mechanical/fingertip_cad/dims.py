@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass
 from functools import cached_property
 
-from fingertip.sim.physics.params import FingertipParams
+from fingertip.hardware.params import FingertipParams
 
 # Which base wire hole (index into [mount] wire_hole_x/y_mm) each gauge's leads go down
 # through, as the [mount] section specifies: gauges 0 and 3 the +x hole, gauge 1 (and the

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
-PARAMS_PY = REPO / "host" / "fingertip" / "sim" / "physics" / "params.py"
-PARAMS_TOML = PARAMS_PY.parent / "fingertip.toml"
+HARDWARE = REPO / "host" / "fingertip" / "hardware"
+PARAMS_TOML = HARDWARE / "fingertip.toml"
 
 ORIGIN_X = 100.0
 ORIGIN_Y = 100.0
@@ -62,9 +62,12 @@ MAX_PAD_TO_HOLE = 3.0
 
 
 def load_params(path: str | Path | None = None):
-    spec = importlib.util.spec_from_file_location("_fingertip_params", PARAMS_PY)
-    mod = importlib.util.module_from_spec(spec)
+    """The fingertip's parameters through the host package's ``hardware`` loader, loaded by
+    path (standard library only): this tool runs under KiCad's Python, without the package."""
     import sys
+    spec = importlib.util.spec_from_file_location(
+        "_fingertip_hardware", HARDWARE / "__init__.py", submodule_search_locations=[str(HARDWARE)])
+    mod = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = mod
     spec.loader.exec_module(mod)
     return mod.load(Path(path) if path else PARAMS_TOML)

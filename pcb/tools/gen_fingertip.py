@@ -3,7 +3,7 @@
 
     /usr/bin/python3 pcb/tools/gen_fingertip.py [--params other.toml] [--out DIR]
 
-Reads [mount] through host/fingertip/sim/physics/params.py; a 22 mm fingertip is a different
+Reads [mount] through host/fingertip/hardware/params.py; a 22 mm fingertip is a different
 toml away. Needs KiCad 9 (pcbnew module, kicad-cli for the netlist).
 """
 from __future__ import annotations

@@ -12,7 +12,7 @@ import soundfile as sf
 
 from fingertip.check.audio_capture import SoundCardAudio
 from fingertip.check.piezo import check_piezo
-from fingertip.sim.bringup import VirtualUnit
+from fingertip.sim.device.bringup import VirtualUnit
 
 pytestmark = pytest.mark.slow
 FS = 44100
@@ -20,7 +20,7 @@ FS = 44100
 
 @pytest.mark.parametrize("faults,expect", [((), "pass"), (("piezo-humming",), "fail")])
 def test_card_capture_of_taps(pulse_server, tmp_path, faults, expect):
-    from fingertip.sim.faults import parse_faults
+    from fingertip.sim.device.faults import parse_faults
 
     unit = VirtualUnit(2, parse_faults(list(faults)))
     unit.scene.tap([0.6, 0.95, 1.3])

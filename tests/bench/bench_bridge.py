@@ -24,7 +24,8 @@ from fingertip import Fingertip
 from fingertip.audio import SimulatedSource
 from fingertip.models.force.calibrate import fit_calibration, from_arrays
 from fingertip.models.force.runtime import ForceModel
-from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 
 WINDOWS = 5
 WINDOW_S = 6.0

@@ -21,11 +21,17 @@ from fingertip.models.force.calib_record import FingertipRecording, align_and_jo
 from fingertip.models.force.calibrate import fit_model, rmse
 from fingertip.models.force.weights import record_weights
 from fingertip.reference import ReferenceSamples
-from fingertip.sim.bringup import GuidedScene, SimAudio, SimGuide, SimWeightsGuide, VirtualUnit
-from fingertip.sim.faults import FAULTS, PIEZO_FAULTS, parse_faults, simavr_commands
+from fingertip.sim.device.bringup import (
+    GuidedScene,
+    SimAudio,
+    SimGuide,
+    SimWeightsGuide,
+    VirtualUnit,
+)
+from fingertip.sim.device.faults import FAULTS, PIEZO_FAULTS, parse_faults, simavr_commands
 from fingertip.sim.physics import VirtualStrainSensor
-from fingertip.sim.pty_device import PtyDevice
-from fingertip.sim.reference_run import random_presses, simulate_reference_run
+from fingertip.sim.device.pty_device import PtyDevice
+from fingertip.sim.device.reference_rig import random_presses, simulate_reference_run
 
 CLEAN_UNITS = 50
 OFFSET_SEEDS = range(5)
@@ -39,8 +45,8 @@ def _check(seed: int, faults=(), speed: float = 4.0):
 
 
 def _firmware_faults_found() -> int:
-    from fingertip.sim.simavr import FirmwareSim, HarnessError, open_fingertip
-    from fingertip.sim.simavr_check import SimavrGuide
+    from fingertip.sim.device.simavr import FirmwareSim, HarnessError, open_fingertip
+    from fingertip.sim.device.simavr_check import SimavrGuide
 
     rest, found = [100_000, -200_000, 30_000, 50_000], 0
     for name in (f for f in FAULTS if f not in PIEZO_FAULTS):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import subprocess
 import time
 
-from fingertip.sim.simavr import FirmwareSim, firmware_elf, open_fingertip
+from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 SIM_SECONDS = 20.0
 

@@ -21,7 +21,8 @@ import numpy as np
 
 from fingertip.models.force.calibrate import DEFAULT_MODELS, fit_calibration, from_arrays, rmse
 from fingertip.models.force.runtime import ForceModel
-from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 
 UNIT = 1
 

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from fingertip.device import Hand
-from fingertip.sim.simavr import FirmwareSim, firmware_elf, open_fingertip
+from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 ROOT = Path(__file__).resolve().parents[2]
 HAND = ROOT / "pcb" / "hand"

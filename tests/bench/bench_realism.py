@@ -1,12 +1,12 @@
 """The paper's methods against ours on the realistic virtual fingertip, side by side.
 
 Every force MSE here is the mean over readings and over Fx, Fy (the paper's most likely
-reading: fingertip.sim.paper_method.PAPER_MSE_PER_COMPONENT), half the error vector's mean
+reading: studies.paper_method.PAPER_MSE_PER_COMPONENT), half the error vector's mean
 squared length; the headline's vector form is kept as ``..._vector``.
 
 Force: virtual units 1-3 with every documented error source (fingertip.sim.physics.realism),
 each one session of the paper's protocol (66 trials x 40 readings, 8 s pauses), tared; whole
-trials held out (80/20, the paper's split: fingertip.sim.paper_method.PAPER_SPLIT); the
+trials held out (80/20, the paper's split: studies.paper_method.PAPER_SPLIT); the
 paper's MLP and ours (``fingertip calibrate fit``: fit_calibration with its default models and
 own choice) on the same training rows, scored on the same test rows. Also: ours re-tared
 before each contact, a random split of the readings instead, the ideal sensor
@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fingertip.sim.paper_method import (
+from studies.paper_method import (
     PAPER_FORCE_MSE_N2,
     PAPER_MATERIAL_ACCURACY,
     PAPER_MSE_PER_COMPONENT,

@@ -14,7 +14,7 @@ Seeds and ranges (every figure below is from these):
   pinch trials' worlds (seeds 0..24, ``make_world``: placements 0.3-1.3 mm plus 0.15 s of
   travel, contact heights 1-4 mm, angles +-20 deg; piezo audio seeded by the trial), tofu
   and chip at the paper's 0.5 / 0.1 N, closing speeds 0.5-32 mm/s, force-only 15 Hz,
-  force-only 80 Hz and fused contact (:mod:`fingertip.sim.pinch_speed`), two processes;
+  force-only 80 Hz and fused contact (:mod:`studies.pinch_speed`), two processes;
 - latency budget: the firmware ELF at 115200, 500000 and 1000000 baud, 4 and 16 channels,
   20 simulated seconds each (``make -C firmware bauds``);
 - slip: 100 holds (seeds 0..99, ``slip_trials(100, 0)``) of five objects in turn
@@ -33,10 +33,11 @@ from pathlib import Path
 import numpy as np
 
 from fingertip.device.fingertip import DEVICE_RATES
-from fingertip.sim import latency_budget as lb
-from fingertip.sim import pinch_speed as ps
+from studies import latency_budget as lb
+from studies import pinch_speed as ps
+
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
-from fingertip.sim.reflex_eval import run_session, summarise
+from studies.reflex_eval import run_session, summarise
 from fingertip.sim.world.slip import run_hold_trial, slip_trials
 
 CONTACTS = 500

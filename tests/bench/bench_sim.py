@@ -1,7 +1,7 @@
 """Cost of the virtual fingertip: simulated seconds per wall second.
 
 - ``sim_realtime_factor_<scene>`` for the standard scenes (press, slide 5 s, contact, cups,
-  shake), from :func:`fingertip.sim.physics.bench.scene_realtime_factors` (median of
+  shake), from :func:`studies.sim_speed.scene_realtime_factors` (median of
   repeats, whole ``simulate`` call).
 - One scene, the press, as force only (its default) and as force + vibration, measured
   side by side: what "model only what a scene needs" saves.
@@ -25,7 +25,7 @@ from dataclasses import replace
 from fingertip.protocol import Sample, Start, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.physics import FORCE, VIBRATION, Press, VirtualStrainSensor
-from fingertip.sim.physics.bench import STANDARD_SCENES, realtime_factor, scene_realtime_factors
+from studies.sim_speed import STANDARD_SCENES, realtime_factor, scene_realtime_factors
 
 REPEATS = 3
 TWIN_SECONDS = 10.0

@@ -146,7 +146,8 @@ class FingerWatch:
 def _force_model(folder: Path):
     from fingertip.models.force.calibrate import fit_affine, from_arrays, model_metadata
     from fingertip.models.force.runtime import ForceModel
-    from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+    from fingertip.sim.physics import VirtualStrainSensor
+    from fingertip.sim.device.calibration_rig import calibration_sweep
 
     s = VirtualStrainSensor(0)
     sw = calibration_sweep(s, seed=1, angles_deg=(-40, 0, 40), heights_mm=(1, 3))

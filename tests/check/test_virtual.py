@@ -12,9 +12,9 @@ from fingertip.check import run_check
 from fingertip.check.guide import NoPromptGuide
 from fingertip.check.probe import DeviceProbe
 from fingertip.device import Fingertip
-from fingertip.sim.bringup import SimAudio, SimGuide, VirtualUnit
-from fingertip.sim.faults import FAULTS, parse_fault, parse_faults
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.bringup import SimAudio, SimGuide, VirtualUnit
+from fingertip.sim.device.faults import FAULTS, parse_fault, parse_faults
+from fingertip.sim.device.pty_device import PtyDevice
 
 SPEED = 4.0
 """Device seconds per wall second: the check's 15 s in about 4 s (faster starves the

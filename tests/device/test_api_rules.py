@@ -13,7 +13,7 @@ from fingertip.device import Hand, NotConnected
 from fingertip.record import Recorder, RecorderError, Recording
 from fingertip.record.replay import Replay
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 
 @pytest.fixture

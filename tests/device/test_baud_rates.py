@@ -12,7 +12,7 @@ import pytest
 from fingertip import CommandTimeout, Fingertip
 from fingertip.device.fingertip import DEVICE_RATES
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import open_serial
 
 

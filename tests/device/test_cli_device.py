@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 EXE = str(Path(sys.executable).with_name("fingertip"))
 

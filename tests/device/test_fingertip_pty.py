@@ -9,7 +9,7 @@ import pytest
 from fingertip import CommandFailed, CommandTimeout, Fingertip, ProtocolVersionError
 from fingertip.protocol import ErrorCode, Info, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import TransportError
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from fingertip import Fingertip, Hand
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 
 def test_four_devices(tmp_path):

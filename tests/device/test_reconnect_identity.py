@@ -9,7 +9,7 @@ import time
 from fingertip import Fingertip
 from fingertip.protocol import Start, encode
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 from .test_fingertip_pty import wait_for
 

@@ -9,7 +9,7 @@ import pytest
 from fingertip import Fingertip
 from fingertip.device import FingertipError, SharedReader
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 from .test_fingertip_pty import wait_for
 

@@ -16,7 +16,7 @@ import pytest
 
 from fingertip import Fingertip, FingertipError
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import TransportError, open_serial
 
 from .test_fingertip_pty import wait_for

@@ -16,9 +16,8 @@ from fingertip.events.reflex import (
 )
 from fingertip.sim.physics import AudioChain, Excitation
 from fingertip.sim.physics.disturbances import motor_noise
-from fingertip.sim.physics.touch import Session, Touch, render_session, touch_sessions
+from fingertip.sim.physics.touch import Session, Touch
 from fingertip.sim.physics.vibration import half_sine, place
-from fingertip.sim.reflex_eval import run_session, summarise
 
 FS = 44100
 
@@ -146,20 +145,6 @@ def test_events_reach_a_recording_events_topic(tmp_path):
     assert all(e.topic == "/fingertip/index/events" for e in events)
     detail = json.loads(events[0].msg.detail)
     assert detail["source"] == "piezo" and detail["latency_ms"] == pytest.approx(3.0)
-
-
-def test_small_evaluation_fused_beats_force_and_misses_nothing():
-    """20 simulated touches (seeds 7..10): the bench runs 500 (tests/bench/bench_reflex.py)."""
-    sessions = touch_sessions(20, 5, 7, speech_db=65.0)
-    fused, f80 = [], []
-    for s in sessions:
-        audio = render_session(s)
-        fused.append(run_session(s, "fused", 80, audio=audio, wall_clock=False))
-        f80.append(run_session(s, "force", 80, wall_clock=False))
-    a, b = summarise(fused), summarise(f80)
-    assert a["contacts"] == 20 and a["missed"] == 0 and b["missed"] == 0
-    assert a["p99_ms"] < 5.0 < b["p50_ms"]
-    assert a["false"] == 0
 
 
 def test_a_session_gives_its_truth():

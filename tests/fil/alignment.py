@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass
 
 from fingertip.clockfit import FrameClock
-from fingertip.sim.simavr import FirmwareSim, firmware_elf, open_fingertip
+from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 FS = 44_100
 BLOCK = 441

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from fingertip.sim.simavr import FirmwareSim, HarnessError, firmware_elf, harness_binary
+from fingertip.sim.device.simavr import FirmwareSim, HarnessError, firmware_elf, harness_binary
 
 
 def _need_builds(channels: int | str) -> None:

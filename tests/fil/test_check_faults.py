@@ -6,9 +6,9 @@ import pytest
 
 from fingertip.check import run_check
 from fingertip.check.probe import DeviceProbe
-from fingertip.sim.faults import FAULTS, PIEZO_FAULTS, parse_faults, simavr_commands
-from fingertip.sim.simavr import open_fingertip
-from fingertip.sim.simavr_check import SimavrGuide
+from fingertip.sim.device.faults import FAULTS, PIEZO_FAULTS, parse_faults, simavr_commands
+from fingertip.sim.device.simavr import open_fingertip
+from fingertip.sim.device.simavr_check import SimavrGuide
 
 REST = [100_000, -200_000, 30_000, 50_000]
 NOISE = 45.0
@@ -38,7 +38,7 @@ def test_fault_found_in_firmware(make_sim, fault):
 
 
 def test_harness_rejects_bad_fault_commands(make_sim):
-    from fingertip.sim.simavr import HarnessError
+    from fingertip.sim.device.simavr import HarnessError
 
     sim = make_sim(4)
     with pytest.raises(HarnessError, match="bad fault"):

@@ -19,7 +19,7 @@ from fingertip.protocol import (
     encode,
     seal,
 )
-from fingertip.sim.simavr import open_fingertip
+from fingertip.sim.device.simavr import open_fingertip
 from fingertip.transport import open_serial
 
 EDGES = [0x7FFFFF, -0x800000, -1, 0]

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 KINDS = ("empty", "truncated", "random", "wrong")
 
@@ -51,7 +51,9 @@ def good(tmp_path_factory) -> dict[str, Path]:
     from fingertip.models.vibration.material import train_material
     from fingertip.record import Recorder
     from fingertip.sim.dataset import write_vibration
-    from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+    from fingertip.sim.physics import VirtualStrainSensor
+    from fingertip.sim.device.calibration_rig import calibration_sweep
+    from fingertip import Fingertip
 
     d = tmp_path_factory.mktemp("good")
     write_vibration(d / "vib", recordings_per_class=3, seconds=0.6, seed=1)

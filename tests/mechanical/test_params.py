@@ -1,8 +1,10 @@
-"""The CAD's parameters: one file with the physics model, overrides, impossible sets refused,
-and the prism's strain per newton from the very geometry the CAD builds."""
+"""The CAD's parameters: the hardware file the simulator reads too, overrides, impossible sets
+refused, and the prism's strain per newton from the very geometry the CAD builds."""
 from __future__ import annotations
 
 import pytest
+
+from fingertip.hardware import load
 from fingertip_cad import Dims, load_params
 from fingertip_cad.cli import main
 from fingertip_cad.config import parse_override
@@ -10,7 +12,7 @@ from fingertip_cad.config import parse_override
 from fingertip.sim.physics import load
 
 
-def test_the_cad_reads_the_physics_models_file():
+def test_the_cad_reads_the_hardware_file():
     assert load_params() == load()
 
 

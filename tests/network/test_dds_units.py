@@ -206,7 +206,7 @@ def test_paired_audio_needs_a_usb_port(tmp_path):
     """--audio paired looks for the sound card on the fingertip's USB hub; a pty has none:
     one line, exit 2 (the pairing itself needs USB hardware, not here)."""
     from fingertip.sim import VirtualFirmware
-    from fingertip.sim.pty_device import PtyDevice
+    from fingertip.sim.device.pty_device import PtyDevice
 
     with PtyDevice(VirtualFirmware(4)) as dev:
         r = subprocess.run([sys.executable, "-m", "fingertip.cli", "publish", "--port",

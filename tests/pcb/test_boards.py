@@ -203,7 +203,7 @@ def close(a, b, tol=0.05) -> bool:
 
 
 def test_fingertip_outline_and_holes_match_mount():
-    from fingertip.sim.physics.params import load
+    from fingertip.hardware.params import load
     m = load().mount
     tree = board_tree(PCB / "fingertip" / "fingertip.kicad_pcb")
     lines, arcs = [], []
@@ -252,7 +252,7 @@ def test_fingertip_outline_and_holes_match_mount():
 
 
 def test_fingertip_wire_pads_next_to_wire_holes():
-    from fingertip.sim.physics.params import load
+    from fingertip.hardware.params import load
     m = load().mount
     tree = board_tree(PCB / "fingertip" / "fingertip.kicad_pcb")
     pads = {}

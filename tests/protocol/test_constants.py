@@ -1,6 +1,6 @@
 """The Python side of the constants shared with the firmware: each one against the single
 list in tests/vectors/protocol_v1.json ("constants"), which firmware/test/test_protocol.cpp
-checks the C++ headers against (tests/sim/test_device_lib.py checks the built library)."""
+checks the C++ headers against (tests/sim/device/test_device_lib.py checks the built library)."""
 from __future__ import annotations
 
 from fingertip.protocol import (

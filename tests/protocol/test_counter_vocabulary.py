@@ -19,7 +19,7 @@ from fingertip.protocol.messages import STATS_FIELDS
 from fingertip.protocol.stream import COUNTER_OF_KIND, DecoderStats
 from fingertip.record.recorder import RecorderStats
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 ROOT = Path(__file__).resolve().parents[2]
 NOT_COUNTERS = {"timestamp_us"}  # when STATS was sent: a time, not a count

@@ -13,7 +13,7 @@ from fingertip import Fingertip, Frame
 from fingertip.audio import Chunk, SimulatedSource
 from fingertip.record import Recorder, RecorderStats
 from fingertip.sim import VirtualFirmware
-from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.device.pty_device import PtyDevice
 
 RATE = 80  # frames per second of the virtual fingertip
 

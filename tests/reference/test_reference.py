@@ -25,7 +25,7 @@ from fingertip.reference.rdt import (
     decode_request,
     smooth_arrivals,
 )
-from fingertip.sim.rdt_server import RdtServer
+from fingertip.sim.device.rdt_server import RdtServer
 
 
 def test_request_layout():

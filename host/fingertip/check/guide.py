@@ -2,7 +2,7 @@
 
 :class:`PromptGuide` asks a person on the terminal; :class:`NoPromptGuide` skips the steps
 (``--no-prompt``) and the report lists what was skipped. The virtual fingertip has its own
-guide (:class:`fingertip.sim.bringup.SimGuide`) that lets the simulator press.
+guide (:class:`fingertip.sim.device.bringup.SimGuide`) that lets the simulator press.
 """
 from __future__ import annotations
 

@@ -53,7 +53,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
             else:
                 begin = None
                 if args.virtual:
-                    from ..sim.reference_run import virtual_rdt_rig
+                    from ..sim.device.reference_rig import virtual_rdt_rig
 
                     port, addr, begin = stack.enter_context(virtual_rdt_rig(
                         args.seed, args.duration, delay_s=args.sim_delay_ms / 1e3,
@@ -117,8 +117,8 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     try:
         with contextlib.ExitStack() as stack:
             if args.virtual:
-                from ..sim.bringup import SimWeightsGuide, VirtualUnit
-                from ..sim.pty_device import PtyDevice
+                from ..sim.device.bringup import SimWeightsGuide, VirtualUnit
+                from ..sim.device.pty_device import PtyDevice
 
                 unit = VirtualUnit(args.seed)
                 dev = stack.enter_context(PtyDevice(unit.firmware, speed=args.speed))

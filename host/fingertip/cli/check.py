@@ -20,9 +20,9 @@ log = logging.getLogger("fingertip")
 @contextlib.contextmanager
 def _virtual(args: argparse.Namespace):
     """A virtual unit behind a real pty; the simulator performs the guided steps."""
-    from ..sim.bringup import SimAudio, SimGuide, VirtualUnit
-    from ..sim.faults import parse_faults
-    from ..sim.pty_device import PtyDevice
+    from ..sim.device.bringup import SimAudio, SimGuide, VirtualUnit
+    from ..sim.device.faults import parse_faults
+    from ..sim.device.pty_device import PtyDevice
 
     unit = VirtualUnit(args.seed, parse_faults(args.fault or []))
     with PtyDevice(unit.firmware, speed=args.speed) as dev:

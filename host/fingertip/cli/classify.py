@@ -156,7 +156,7 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         if args.file is not None:
             source = args.file
         elif args.simulate is not None:
-            from ..sim.scene_audio import scene_audio_source
+            from ..sim.device.scene_audio import scene_audio_source
 
             source = scene_audio_source(args.simulate, args.kind, args.duration,
                                         not args.fast, args.seed)

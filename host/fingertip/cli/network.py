@@ -18,7 +18,7 @@ log = logging.getLogger("fingertip")
 def _virtual_ports(n: int, seed: int, stack: contextlib.ExitStack) -> list[str]:
     """``--virtual N``: N idle virtual fingertips on ptys (the simulator sits above the
     network layer, so the command line opens them and hands their ports down)."""
-    from ..sim.pty_device import virtual_fingertip_ports
+    from ..sim.device.pty_device import virtual_fingertip_ports
 
     return virtual_fingertip_ports(n, seed, stack)
 

@@ -15,7 +15,7 @@ import sys
 from collections.abc import Sequence
 
 from ..badfile import reports_bad_files
-from ..sim.faults import FAULTS
+from ..sim.device.faults import FAULTS
 from .argtypes import number
 
 log = logging.getLogger("fingertip")
@@ -28,11 +28,11 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
 
     from ..sim import VirtualFirmware
     from ..sim.physics import Idle, VirtualStrainSensor
-    from ..sim.pty_device import PtyDevice
+    from ..sim.device.pty_device import PtyDevice
 
     if args.fault:
-        from ..sim.bringup import VirtualUnit
-        from ..sim.faults import parse_faults
+        from ..sim.device.bringup import VirtualUnit
+        from ..sim.device.faults import parse_faults
 
         if args.channels != 4:
             log.error("--fault needs the 4-channel fingertip")

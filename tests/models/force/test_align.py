@@ -14,7 +14,7 @@ from fingertip.models.force.calib_record import (
     trials_of,
 )
 from fingertip.reference import ReferenceError, ReferenceSamples
-from fingertip.sim.reference_run import simulate_reference_run
+from fingertip.sim.device.reference_rig import simulate_reference_run
 
 
 @pytest.fixture(scope="module")

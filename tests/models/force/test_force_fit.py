@@ -40,7 +40,8 @@ from fingertip.models.force.calibrate import (
     split_groups,
     split_holdout,
 )
-from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import Realism, VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 
 RMSE_TARGET_N = 0.2
 

@@ -22,7 +22,8 @@ from fingertip.models.force.calibrate import (
     model_metadata,
 )
 from fingertip.models.force.runtime import ForceModel, ForceStatus, FrameForce, InvalidCounts
-from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+from fingertip.sim.physics import VirtualStrainSensor
+from fingertip.sim.device.calibration_rig import calibration_sweep
 
 
 @pytest.fixture(scope="module")

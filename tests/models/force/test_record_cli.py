@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from fingertip.sim.reference_run import simulate_reference_run
+from fingertip.sim.device.reference_rig import simulate_reference_run
 
 
 def run_cli(*args, cwd, timeout=180):

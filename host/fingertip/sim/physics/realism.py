@@ -1,11 +1,14 @@
-"""Error sources of a real fingertip's strain path, each switchable (``realism.toml``).
+"""The imperfections of a virtual fingertip's strain path: one set of switches
+(:class:`Realism`) and the sizes of the documented error sources (``realism.toml``).
 
-The ideal strain model (:mod:`.strain`) already has the HX711's white noise, hysteresis, a
-short creep, offsets and the per-unit spread. This module adds what a real calibration
-session also meets, with sizes from datasheets or published measurements
+The strain model (:mod:`.strain`) has its own imperfections, sized in the hardware's
+``fingertip.toml``: hysteresis, a short first-order creep, the unit's response to temperature
+(apparent strain, span, gauge factor, leads), the bridge's and the HX711's offsets and the
+moment shunted past the prism by the base. On top of them come the error sources that a real
+calibration session also meets, with sizes from datasheets or published measurements
 (docs/simulation.md, "Error budget"):
 
-- ``hx711_noise``: the datasheet's input noise (switches the existing noise);
+- ``hx711_noise``: the datasheet's input noise;
 - ``hx711_drift``: the HX711's offset and gain temperature coefficients;
 - ``thermal``: the room's temperature over a session (HVAC cycle and daily drift) acting on
   the gauges' thermal output, gauge-factor and span coefficients, and on the bridge
@@ -18,9 +21,10 @@ session also meets, with sizes from datasheets or published measurements
 - ``unit_spread``: glue and placement spread between units (fingertip.toml [variation]);
 - ``mount``: relaxation of the TPU base that carries part of the moment past the gauges.
 
-``Realism()`` has every source on (the default of every virtual unit); ``Realism.ideal()``
-is the earlier, ideal simulator (unit spread and white noise only); ``Realism.none()`` has
-nothing; ``Realism().without("creep")`` drops one, for an ablation.
+``Realism()`` has everything on (the default of every virtual unit); ``Realism.ideal()`` is the
+earlier, ideal simulator (the model's own imperfections, unit spread and white noise);
+``Realism.none()`` has none of the error sources; ``Realism.bare()`` has nothing at all (the
+closed-form beam and bridge); ``Realism().without("creep")`` drops one, for an ablation.
 """
 from __future__ import annotations
 
@@ -29,16 +33,12 @@ import math
 from dataclasses import dataclass, fields
 from functools import lru_cache
 from importlib import resources
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
+from ...hardware.tables import read_tables, tomllib
 from .scan import affine_scan
-
-try:
-    import tomllib
-except ModuleNotFoundError:  # Python 3.10
-    import tomli as tomllib  # type: ignore[no-redef]
 
 REALISM_FILE = "realism.toml"
 SCHEMA = 1
@@ -46,7 +46,8 @@ SCHEMA = 1
 
 @dataclass(frozen=True)
 class Realism:
-    """Which of the documented error sources a virtual unit has (all by default)."""
+    """Which imperfections a virtual unit has (all by default): the documented error
+    sources (:meth:`sources`) and the strain model's own (:meth:`model_effects`)."""
 
     hx711_noise: bool = True
     hx711_drift: bool = True
@@ -56,37 +57,67 @@ class Realism:
     contact: bool = True
     unit_spread: bool = True
     mount: bool = True
+    hysteresis: bool = True
+    """Prandtl-Ishlinskii hysteresis of the prism and glue (fingertip.toml [hysteresis])."""
+    short_creep: bool = True
+    """First-order creep and recovery, seconds (fingertip.toml [creep])."""
+    thermal_response: bool = True
+    """The unit's response to its temperature: apparent strain, span, gauge factor, leads and
+    the HX711's drift. Off, no temperature acts at all, whatever ``temperature_c`` says."""
+    offsets: bool = True
+    """Bridge imbalance, lead resistance, glue pre-strain and HX711 offset."""
+    shunt: bool = True
+    """Moment shared by the TPU base and the skin (angle- and load-dependent)."""
+
+    MODEL_EFFECTS: ClassVar[tuple[str, ...]] = (
+        "hysteresis", "short_creep", "thermal_response", "offsets", "shunt")
 
     @classmethod
     def sources(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))
+        """The documented error sources (the ablations' list)."""
+        return tuple(f.name for f in fields(cls) if f.name not in cls.MODEL_EFFECTS)
+
+    @classmethod
+    def model_effects(cls) -> tuple[str, ...]:
+        return cls.MODEL_EFFECTS
 
     @classmethod
     def none(cls) -> Realism:
-        """None of the sources: the nominal unit, noiseless, at the reference temperature."""
+        """None of the error sources: the nominal unit, noiseless, at the reference
+        temperature (the model's own imperfections stay)."""
         return cls(**{name: False for name in cls.sources()})
+
+    @classmethod
+    def bare(cls) -> Realism:
+        """Nothing at all: the closed-form beam, the exact bridge and the HX711's scale."""
+        return cls(**{f.name: False for f in fields(cls)})
 
     @classmethod
     def ideal(cls) -> Realism:
         """The "ideal sensor" of the project's earlier figures: each unit's own spread and the
-        HX711's white noise, nothing else (the simulator before the error budget)."""
+        HX711's white noise, no other error source (the simulator before the error budget)."""
         return cls.none().only("hx711_noise", "unit_spread")
 
     def without(self, *names: str) -> Realism:
         return dataclasses.replace(self, **{_checked(n): False for n in names})
 
     def only(self, *names: str) -> Realism:
-        """Only the named sources (for "what does this one add" runs)."""
-        return dataclasses.replace(Realism.none(), **{_checked(n): True for n in names})
+        """Only the named error sources (for "what does this one add" runs); the model's own
+        imperfections as in ``self``."""
+        keep = {n: getattr(self, n) for n in self.MODEL_EFFECTS}
+        return dataclasses.replace(Realism.none(), **keep, **{_checked(n): True for n in names})
 
     @property
     def active(self) -> tuple[str, ...]:
+        """The error sources that are on."""
         return tuple(n for n in self.sources() if getattr(self, n))
 
 
 def _checked(name: str) -> str:
-    if name not in Realism.sources():
-        raise ValueError(f"unknown error source {name!r}; one of {', '.join(Realism.sources())}")
+    names = tuple(f.name for f in fields(Realism))
+    if name not in names:
+        raise ValueError(f"unknown error source or imperfection {name!r}; one of "
+                         f"{', '.join(names)}")
     return name
 
 
@@ -165,19 +196,7 @@ class RealismParams:
 
 
 def from_dict(data: dict[str, Any], where: str = REALISM_FILE) -> RealismParams:
-    if data.get("schema") != SCHEMA:
-        raise ValueError(f"{where}: schema {data.get('schema')!r}, expected {SCHEMA}")
-    tables = {k: v for k, v in data.items() if k != "schema"}
-    if set(tables) != set(_SECTIONS):
-        raise ValueError(f"{where}: tables {sorted(tables)}, expected {sorted(_SECTIONS)}")
-    out = {}
-    for name, cls in _SECTIONS.items():
-        table = tables[name]
-        keys = {f.name for f in fields(cls)}
-        if set(table) != keys:
-            raise ValueError(f"{where} [{name}]: unknown keys {sorted(set(table) - keys)}, "
-                             f"missing keys {sorted(keys - set(table))}")
-        out[name] = cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in table.items()})
+    out = read_tables(data, _SECTIONS, where, SCHEMA)
     p = RealismParams(**out)
     for name in ("creep", "skin", "mount"):
         sec = getattr(p, name)

@@ -11,27 +11,25 @@ truth is known without simulating anything). It declares the signals it needs in
   segments, for the contact microphone;
 - ``events()``: ground truth (contact times, rim times and heights, impact times, ...).
 
-:func:`~.simulate.simulate` calls only what ``needs`` lists.
+:func:`~.simulate.simulate` calls only what ``needs`` lists. The paper's task scenes (cups,
+boxes) are in :mod:`.task_scenes`.
 """
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
+
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .materials import CUP_WALL, material
+from .materials import material
 from .vibration import (
     Excitation,
-    damped_sine,
     half_sine,
     place,
     slide_excitation,
-    smooth_noise,
 )
 
 FORCE = "force"
@@ -288,219 +286,6 @@ class Slide(Scene):
             f += _transient(n, fs, [self.start_s + self.duration], [-0.35 * amp], 5e-4)
             out.append(Excitation(f))
         return out
-
-
-@dataclass(frozen=True)
-class CupStackSlide(Scene):
-    """The nail sliding down the outside of a stack of paper cups, over their rims.
-
-    The paper: five cups, a 21 mm slide passing three rims; rims ``pitch_mm`` apart (ours:
-    7 mm). The slide starts ``start_above_mm`` above the top rim at robot height
-    ``z_start_mm`` and moves down at ``speed_mm_s``.
-    """
-
-    speed_mm_s: float = 10.0
-    n_cups: int = 5
-    pitch_mm: float = 7.0
-    slide_mm: float = 21.0
-    start_above_mm: float = 3.5
-    z_start_mm: float = 0.0
-    normal_n: float = 0.4
-    rim_width_mm: float = 1.0
-    rim_jitter_mm: float = 0.2
-    pre_s: float = 0.3
-    post_s: float = 0.3
-    signals: tuple[str, ...] | None = None
-    seed: int = 0
-    default_signals: ClassVar[tuple[str, ...]] = (VIBRATION,)
-
-    @property
-    def duration_s(self) -> float:
-        return self.pre_s + self.slide_mm / self.speed_mm_s + self.post_s
-
-    @cached_property
-    def _rims(self) -> tuple[np.ndarray, np.ndarray]:
-        rng = self.rng(0)
-        k = np.arange(self.n_cups)
-        offsets = self.start_above_mm + k * self.pitch_mm \
-            + self.rim_jitter_mm * rng.standard_normal(self.n_cups)
-        strength = np.exp(0.2 * rng.standard_normal(self.n_cups))
-        return offsets, strength
-
-    def z_mm(self, t: np.ndarray | float) -> np.ndarray:
-        """Robot Z of the nail at scene time t (moves down during the slide)."""
-        s = np.clip((np.asarray(t, float) - self.pre_s) * self.speed_mm_s, 0, self.slide_mm)
-        return self.z_start_mm - s
-
-    def events(self) -> dict[str, Any]:
-        offsets, _ = self._rims
-        passed = offsets < self.slide_mm
-        return {"rim_offsets_mm": offsets.tolist(),
-                "rim_z_mm": (self.z_start_mm - offsets).tolist(),
-                "rim_times_s": (self.pre_s + offsets[passed] / self.speed_mm_s).tolist(),
-                "rims_passed": int(passed.sum()),
-                "slide_start_s": self.pre_s,
-                "slide_end_s": self.pre_s + self.slide_mm / self.speed_mm_s}
-
-    def forces(self, t: np.ndarray) -> Forces:
-        t = np.atleast_1d(np.asarray(t, float))
-        s = (t - self.pre_s) * self.speed_mm_s
-        sliding = (s >= 0) & (s <= self.slide_mm)
-        mag = np.where(sliding, self.normal_n, 0.0)
-        offsets, strength = self._rims
-        for off, a in zip(offsets, strength, strict=True):
-            u = (s - off) / self.rim_width_mm
-            bump = np.where((u >= 0) & (u <= 1), 0.5 - 0.5 * np.cos(2 * np.pi * u), 0.0)
-            mag = mag + np.where(sliding, 0.3 * a * bump, 0.0)
-        return Forces.polar(mag, 0.0, 0.0, CUP_WALL.friction * mag)
-
-    def excitation(self, n: int, fs: int) -> list[Excitation]:
-        ev = self.events()
-        offsets, strength = self._rims
-        rng = self.rng(1)
-        i0 = int(round(self.pre_s * fs))
-        m = max(0, min(n - i0, int(round(self.slide_mm / self.speed_mm_s * fs))))
-        f = np.zeros(n)
-        if m > 0:
-            wall, _ = slide_excitation(CUP_WALL, self.speed_mm_s, self.normal_n, m, fs, rng)
-            # The nail scrapes harder while it rides over each rolled lip.
-            s = np.arange(m) / fs * self.speed_mm_s
-            boost = np.ones(m)
-            for off in offsets:
-                boost += 3.0 * ((s >= off) & (s <= off + self.rim_width_mm))
-            f[i0:i0 + m] = wall * boost
-        passed = offsets < self.slide_mm
-        t_catch = np.asarray(ev["rim_times_s"])
-        a = 0.25 * strength[passed] * (self.speed_mm_s / 10.0) ** 0.5
-        f += _transient(n, fs, t_catch, a, 2.5e-4)
-        t_snap = t_catch + self.rim_width_mm / self.speed_mm_s
-        f += _transient(n, fs, t_snap, -0.6 * a, 4e-4)
-        # Chatter: the nail sticks and slips a few times while it rides over the lip.
-        counts = rng.poisson(6, len(t_catch))
-        tc = np.concatenate([rng.uniform(c, s_, k) for c, s_, k in zip(t_catch, t_snap, counts,
-                                                                       strict=True)])
-        ac = np.repeat(0.3 * a, counts) * np.exp(0.4 * rng.standard_normal(counts.sum()))
-        ac *= rng.choice([-1.0, 1.0], len(ac))
-        f += _transient(n, fs, tc, ac, 3e-4)
-        return [Excitation(f)]
-
-
-BOX_CONTENTS = ("screws", "rubber_bands", "empty")
-
-
-@dataclass(frozen=True)
-class BoxShake(Scene):
-    """Shaking a box held by two nails pressed on its sides (the paper: 0.67 Hz, 5 cm, 5.6 s).
-
-    Contents slide and hit the walls around each turnaround: screws give hard impacts that
-    ring (metal), rubber bands soft thuds, an empty box only the grip's faint creak.
-    """
-
-    content: str = "screws"
-    frequency_hz: float = 0.67
-    amplitude_m: float = 0.05
-    duration: float = 5.6
-    grip_n: float = 1.5
-    items: int | None = None
-    signals: tuple[str, ...] | None = None
-    seed: int = 0
-    default_signals: ClassVar[tuple[str, ...]] = (VIBRATION,)
-
-    def __post_init__(self) -> None:
-        if self.content not in BOX_CONTENTS:
-            raise ValueError(f"content must be one of {BOX_CONTENTS}, not {self.content!r}")
-
-    @property
-    def duration_s(self) -> float:
-        return self.duration
-
-    @property
-    def n_items(self) -> int:
-        if self.items is not None:
-            return self.items
-        return {"screws": 8, "rubber_bands": 10, "empty": 0}[self.content]
-
-    def position_m(self, t: np.ndarray) -> np.ndarray:
-        return self.amplitude_m * np.sin(2 * np.pi * self.frequency_hz * np.asarray(t, float))
-
-    def acceleration(self, t: np.ndarray) -> np.ndarray:
-        w = 2 * np.pi * self.frequency_hz
-        return -self.amplitude_m * w ** 2 * np.sin(w * np.asarray(t, float))
-
-    @cached_property
-    def _impacts(self) -> dict[str, np.ndarray]:
-        rng = self.rng(0)
-        half = 0.5 / self.frequency_hz
-        turns = np.arange(0.25 / self.frequency_hz, self.duration, half)
-        peak_v = self.amplitude_m * 2 * np.pi * self.frequency_hz
-        times, speeds, item = [], [], []
-        for tk in turns:
-            for i in range(self.n_items):
-                # An item leaves the far wall when the box decelerates and lands before the
-                # turnaround; a rebound or two follow (restitution ~0.3).
-                t_hit = tk - rng.uniform(0.02, 0.3)
-                v = peak_v * rng.uniform(0.3, 1.0)
-                for _ in range(1 + int(rng.integers(0, 3))):
-                    if 0 <= t_hit < self.duration:
-                        times.append(t_hit)
-                        speeds.append(v)
-                        item.append(i)
-                    t_hit += rng.uniform(0.005, 0.03)
-                    v *= 0.3
-        return {"turns": turns, "times": np.asarray(times), "speeds": np.asarray(speeds),
-                "item": np.asarray(item, dtype=int)}
-
-    def events(self) -> dict[str, Any]:
-        imp = self._impacts
-        order = np.argsort(imp["times"])
-        return {"content": self.content, "turnaround_times_s": imp["turns"].tolist(),
-                "impact_times_s": imp["times"][order].tolist()}
-
-    def forces(self, t: np.ndarray) -> Forces:
-        t = np.atleast_1d(np.asarray(t, float))
-        box_kg = 0.1 + 0.005 * self.n_items
-        mag = self.grip_n + 0.5 * box_kg * self.acceleration(t)
-        mag = np.where((t >= 0) & (t <= self.duration), mag, 0.0)
-        return Forces.polar(mag, 0.0, 0.0)
-
-    def excitation(self, n: int, fs: int) -> list[Excitation]:
-        imp = self._impacts
-        rng = self.rng(1)
-        t = np.arange(n) / fs
-        grip = (self.grip_n / 1.5) ** 0.7
-        # The grip creaks faintly where the box accelerates most (all contents, and empty).
-        creak = smooth_noise(n, fs, 4000.0, rng) * 2e-4 * grip \
-            * (np.abs(self.acceleration(t)) / (self.amplitude_m * (2 * np.pi
-                                                                   * self.frequency_hz) ** 2))
-        f = creak
-        times, speeds = imp["times"], imp["speeds"]
-        modes: tuple = ((380.0, 0.12, 0.6), (950.0, 0.1, 0.3))  # cardboard box walls
-        lowpass = 9000.0
-        if self.content == "screws" and len(times):
-            mass = 0.002
-            pulse = math.pi * mass * speeds / (2 * 2.5e-4) * 0.08 * grip
-            f = f + place(n, times, pulse, half_sine(2.5e-4, fs), fs)
-            # Each screw rings at its own frequencies (steel: very light damping).
-            k = self.n_items
-            ring_f = rng.uniform(3500, 11000, (k, 2))
-            length = int(0.06 * fs)
-            kern = damped_sine(ring_f[imp["item"], 0], np.full(len(times), 0.004), fs, length) \
-                + 0.6 * damped_sine(ring_f[imp["item"], 1], np.full(len(times), 0.004), fs,
-                                    length)
-            f = f + place(n, times, 0.25 * pulse, kern, fs)
-            # Rattle: screws rolling on the floor of the box between impacts.
-            rate = 40.0 * k / 8
-            count = rng.poisson(rate * self.duration)
-            tr = rng.uniform(0, self.duration, count)
-            ar = 0.004 * grip * np.exp(0.5 * rng.standard_normal(count))
-            f = f + place(n, tr, ar, half_sine(1.5e-4, fs), fs)
-        elif self.content == "rubber_bands" and len(times):
-            mass = 0.001
-            dur = rng.uniform(4e-3, 8e-3)
-            pulse = math.pi * mass * speeds / (2 * dur) * 0.08 * grip
-            f = f + place(n, times, pulse, half_sine(dur, fs), fs)
-            lowpass = 2500.0
-        return [Excitation(f, 0, lowpass, modes)]
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ resistor tolerances, pre-strain, base shunt, hysteresis, creep, thermal coeffici
 from its seed, so each virtual fingertip needs its own calibration. On top of this, every unit
 has the documented error sources of :mod:`.realism` (the room's temperature, slow creep, the
 bridge resistors' and the HX711's drift, the eccentric moment of a vertical contact force,
-the base's relaxation), each switchable with ``realism=``.
+the base's relaxation). Every imperfection, the model's own and the error sources, is one
+switch of :class:`~.realism.Realism` (``realism=``).
 """
 from __future__ import annotations
 
@@ -34,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import realism as _realism
-from .params import FingertipParams, load, section_rigidity
+from ...hardware import FingertipParams, load, section_rigidity
 from .realism import Realism, SlowCreep, UnitRealism, eccentric_strain, lab_temperature
 from .scan import affine_scan, play_scan
 
@@ -46,24 +47,6 @@ TANGENTS = np.stack([-np.sin(FACE_ANGLES), np.cos(FACE_ANGLES)], axis=1).round(1
 Temperature = float | Callable[[np.ndarray], np.ndarray]
 CHUNK = 1 << 15
 """Samples per scan chunk in the batch path (state carries across chunks: same result)."""
-
-
-@dataclass(frozen=True)
-class Effects:
-    """Which imperfections are modelled (all on by default)."""
-
-    hysteresis: bool = True
-    creep: bool = True
-    thermal: bool = True
-    noise: bool = True
-    offsets: bool = True
-    """Bridge imbalance, lead resistance, glue pre-strain and HX711 offset."""
-    shunt: bool = True
-    """Moment shared by the TPU base and the skin (angle- and load-dependent)."""
-
-    @classmethod
-    def ideal(cls) -> Effects:
-        return cls(False, False, False, False, False, False)
 
 
 @dataclass(frozen=True)
@@ -164,15 +147,16 @@ class VirtualStrainSensor:
     constant or a function of time in seconds (array in, array out); by default the room's
     temperature over a session (:func:`~.realism.lab_temperature`) when the ``thermal``
     source is on, else the reference temperature (no drift). ``realism`` selects the
-    documented error sources (:class:`~.realism.Realism`: all on by default;
-    ``Realism.none()`` is the ideal sensor). Forces are in newtons in the fingertip frame (the force
-    the object applies to the fingertip), contact heights in millimetres below the nail tip,
+    imperfections (:class:`~.realism.Realism`: all on by default; ``Realism.ideal()`` is the
+    earlier ideal sensor, ``Realism.bare()`` the closed-form beam and bridge). Forces are in
+    newtons in the fingertip frame (the force the object applies to the fingertip), contact
+    heights in millimetres below the nail tip,
     times in seconds. Hysteresis and creep keep state between calls: feed samples in time
     order, or call :meth:`reset`.
     """
 
     def __init__(self, seed: int | None = 0, *, params: FingertipParams | None = None,
-                 variation: bool = True, effects: Effects | None = None, rate_sps: int = 80,
+                 variation: bool = True, rate_sps: int = 80,
                  temperature_c: Temperature | None = None,
                  realism: Realism | None = None) -> None:
         self.params = params or load()
@@ -182,22 +166,19 @@ class VirtualStrainSensor:
         unit_ss, noise_ss, real_ss = ss.spawn(3)
         self.unit = UnitVariation.draw(self.params, np.random.default_rng(unit_ss)) \
             if variation and self.realism.unit_spread else UnitVariation.nominal(self.params)
-        self.effects = effects or Effects()
         self.rate_sps = rate_sps
         self.params.hx711.noise_v_rms(rate_sps)  # validates the rate
         self.realism_params = _realism.load()
         self.real = UnitRealism.draw(self.realism_params, self.realism,
-                                     self.unit.shunt if self.effects.shunt else 0.0,
+                                     self.unit.shunt if self.realism.shunt else 0.0,
                                      np.random.default_rng(real_ss))
         if temperature_c is None:
             temperature_c = lab_temperature(self.realism_params, self.real,
                                             self.params.thermal.reference_c) \
-                if self.realism.thermal and self.effects.thermal \
+                if self.realism.thermal and self.realism.thermal_response \
                 else self.params.thermal.reference_c
         self.temperature_c: Temperature = temperature_c
-        self._slow = SlowCreep(self.real.creep_fraction if self.effects.creep
-                               else np.zeros_like(self.real.creep_fraction),
-                               self.real.creep_tau_s)
+        self._slow = SlowCreep(self.real.creep_fraction, self.real.creep_tau_s)
         self._noise_rng = np.random.default_rng(noise_ss)
         h = self.params.hysteresis
         self._radii = (np.arange(h.operators) + 0.5) / h.operators * h.radius_max_ue * 1e-6
@@ -243,7 +224,7 @@ class VirtualStrainSensor:
 
     def shunt_fraction(self, f: np.ndarray) -> np.ndarray:
         """Fraction of the moment carried past the prism, (N,)."""
-        if not self.effects.shunt:
+        if not self.realism.shunt:
             return np.zeros(f.shape[0])
         b = self.params.base
         mag = np.hypot(f[:, 0], f[:, 1])
@@ -290,7 +271,7 @@ class VirtualStrainSensor:
     # --- dynamics (stateful) --------------------------------------------------------------
 
     def _hysteresis(self, eps: np.ndarray, update: bool) -> np.ndarray:
-        if not self.effects.hysteresis or eps.shape[0] == 0:
+        if not self.realism.hysteresis or eps.shape[0] == 0:
             return eps
         st = self._state
         out = np.empty_like(eps)
@@ -305,7 +286,7 @@ class VirtualStrainSensor:
         return out
 
     def _creep(self, eps: np.ndarray, t: np.ndarray, update: bool) -> np.ndarray:
-        if not self.effects.creep or eps.shape[0] == 0:
+        if not self.realism.short_creep or eps.shape[0] == 0:
             return eps
         st = self._state
         dt = np.diff(t, prepend=t[0] if st.t_last is None else st.t_last)
@@ -336,12 +317,12 @@ class VirtualStrainSensor:
         p, u = self.params, self.unit
         gf = u.gauge_factor
         r_lead = p.bridge.lead_resistance_ohm
-        if self.effects.offsets:
+        if self.realism.offsets:
             r_g0, rc = u.gauge_ohm, u.completion_ohm
         else:
             r_g0, rc, r_lead = np.full(4, p.gauge.resistance_ohm), \
                 np.full((4, 3), p.bridge.completion_ohm), 0.0
-        if temperature_c is not None and self.effects.thermal:
+        if temperature_c is not None and self.realism.thermal_response:
             dt = temperature_c[:, None] - p.thermal.reference_c
             gf = gf * (1 + p.gauge.gauge_factor_tc_per_k * dt)
             r_lead = r_lead * (1 + 0.0039 * dt)  # copper
@@ -397,21 +378,21 @@ class VirtualStrainSensor:
         mech = self._slow.apply(mech, t, update_state)
         temp = None
         total = mech
-        if self.effects.thermal:
+        if self.realism.thermal_response:
             temp = self.temperature_at(t)
             dt = temp[:, None] - self.params.thermal.reference_c
             total = mech * (1 + self.unit.span_tc_per_k * dt) \
                 + self.unit.apparent_strain_per_k * dt
-        if self.effects.offsets:
+        if self.realism.offsets:
             total = total + self.unit.prestrain
         volts = self.bridge_volts(total, temp)
-        if self.effects.offsets:
+        if self.realism.offsets:
             volts = volts + self.unit.hx711_offset_v
         if temp is not None:  # the HX711's own temperature coefficients
             volts = (volts + self.real.offset_drift_v_per_k * dt) \
                 * (1 + self.real.gain_drift_per_k * dt)
         counts_f = volts * self.params.hx711.counts_per_volt
-        if self.effects.noise and self.realism.hx711_noise:
+        if self.realism.hx711_noise:
             counts_f = counts_f + self._noise_rng.standard_normal(counts_f.shape) \
                 * self.noise_counts_rms(rate_sps)
         if update_state and t.shape[0]:

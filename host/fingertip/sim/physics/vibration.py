@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .materials import REF_NORMAL_N, REF_SPEED_MM_S, Material
-from .params import FingertipParams, load
+from ...hardware import FingertipParams, load
 
 Mode = tuple[float, float, float]
 """(frequency Hz, damping ratio, weight)."""

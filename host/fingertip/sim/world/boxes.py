@@ -157,7 +157,7 @@ def shake_model_path(recordings_per_class: int = 20) -> Path:
     trained once on simulated shakes like the paper's training set (20 per class: screws,
     rubber bands, empty; 5.6 s; grips 1-2 N; default fills and amplitude) and cached under
     :func:`cache_dir`. Deterministic: about 5 s the first time."""
-    from ... import __version__, models
+    from ... import __version__, hardware, models
     from ...models.nets.fit_cache import fit_key
     from ...models.vibration.shake import train_shake
     from .. import dataset, physics
@@ -167,8 +167,8 @@ def shake_model_path(recordings_per_class: int = 20) -> Path:
     # a classifier trained by older code is never reused (as the force models' cache is).
     key = fit_key({"seed": SHAKE_MODEL_SEED, "recordings_per_class": recordings_per_class,
                    "models": "mlp", "train_seed": 0},
-                  [Path(physics.__file__).parent, Path(dataset.__file__),
-                   Path(models.__file__).parent], __version__)
+                  [Path(physics.__file__).parent, Path(hardware.__file__).parent,
+                   Path(dataset.__file__).parent, Path(models.__file__).parent], __version__)
 
     def build(folder: Path) -> None:
         log.info("training the shake classifier on simulated shakes in %s", folder)

@@ -24,6 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ...device import Frame
+from ..physics import AudioChain, VirtualStrainSensor
+from ..device.calibration_rig import calibration_sweep
 from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from ..physics import AudioChain, VirtualStrainSensor, calibration_sweep
 from .audio_bus import AudioBus
@@ -54,17 +56,19 @@ def tare_counts(sensor: VirtualStrainSensor, t0: float = 0.0) -> np.ndarray:
 
 def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
-    from ... import __version__, models
+    from ... import __version__, hardware, models
     from ...models.force.calibrate import fit_calibration, from_arrays
     from ...models.force.runtime import ForceModel
     from ...models.nets.fit_cache import fit_key
     from .. import physics
+    from ..device import calibration_rig
 
     fit = {"unit_seed": unit_seed, "rate_sps": RATE_SPS, "tare_samples": _TARE_SAMPLES,
            "models": "mlp16x16", "epochs": 300, "t0_us": 1_000_000}
     # Keyed by the fit's parameters and by the code that simulates and fits the unit, so a
     # model fitted by older code is never reused (it was, with the unit's seed alone).
     key = fit_key(fit, [Path(__file__), Path(physics.__file__).parent,
+                        Path(hardware.__file__).parent, Path(calibration_rig.__file__),
                         Path(models.__file__).parent], __version__)
 
     def build(folder: Path) -> None:
