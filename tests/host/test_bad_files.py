@@ -53,7 +53,6 @@ def good(tmp_path_factory) -> dict[str, Path]:
     from fingertip.sim.dataset import write_vibration
     from fingertip.sim.physics import VirtualStrainSensor
     from fingertip.sim.device.calibration_rig import calibration_sweep
-    from fingertip import Fingertip
 
     d = tmp_path_factory.mktemp("good")
     write_vibration(d / "vib", recordings_per_class=3, seconds=0.6, seed=1)

@@ -9,8 +9,6 @@ from fingertip_cad import Dims, load_params
 from fingertip_cad.cli import main
 from fingertip_cad.config import parse_override
 
-from fingertip.sim.physics import load
-
 
 def test_the_cad_reads_the_hardware_file():
     assert load_params() == load()

@@ -11,7 +11,7 @@ from fingertip.events.contact_set import ContactSet
 from fingertip.events.reflex import OnsetDetector
 from studies import pinch_speed as ps
 from fingertip.sim.world.approach_hand import ACCEL_MM_S2, COMMAND_S, ApproachHand
-from fingertip.sim.world.hand import CHIP, FINGERS, TOFU, make_world
+from fingertip.sim.world.hand import FINGERS, TOFU, make_world
 from fingertip.tasks import PinchConfig, PinchOutcome, pinch
 
 

@@ -27,7 +27,6 @@ from ...device import Frame
 from ..physics import AudioChain, VirtualStrainSensor
 from ..device.calibration_rig import calibration_sweep
 from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
-from ..physics import AudioChain, VirtualStrainSensor, calibration_sweep
 from .audio_bus import AudioBus
 from .cache import cached
 
