@@ -59,7 +59,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..hand_args import hand_audio_from_args
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
-    from ..record.recorder import RecorderError
+    from ..record.stats import RecorderError
     from ..record.schemas import check_name
     from ..record.session import (
         RecordSettings,
