@@ -18,7 +18,6 @@ from pathlib import Path
 
 from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
-from .frame_text import frame_json, frame_line
 from ..hand_args import add_hand_args, hand_spec_from_args
 log = logging.getLogger("fingertip")
 
@@ -155,6 +154,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     frames as `fingertip stream` does."""
     from ..record.reader import RecordingError
     from ..record.replay import Replay
+    from ..stream.text import frame_json, frame_line
 
     try:
         rp = Replay(args.file, args.name,
