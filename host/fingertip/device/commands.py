@@ -165,6 +165,8 @@ class DeviceCommands:
         self._command(SetTareOffsets(0, (1 << len(offsets)) - 1, padded))
         self.settings.offsets = tuple(offsets)
 
+    # --- sending a command, and its answers -----------------------------------------------
+
     def _command(self, cmd: Command, timeout: float | None = None,
                  retries: int | None = None) -> list:
         """Send ``cmd`` and wait for its ACK; return the messages that came before the ACK."""
