@@ -13,7 +13,7 @@ from fingertip.hand_args import HandSpec, parse_split
 from fingertip.network.hand import open_fingers
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
-from tests.device.test_fingertip_pty import wait_for
+from tests.device.waiting import wait_for
 
 FINGERS = ("index", "middle", "ring")
 

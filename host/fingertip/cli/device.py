@@ -15,8 +15,6 @@ from ..flash import FlashError, flash
 from ..hand_args import add_hand_args, hand_spec_from_args
 from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
 from ..transport import DeviceNotFound, TransportError, list_ports
-from .frame_text import frame_json, frame_line
-from .hand_stream import apply_stream_settings, stream_hand
 
 log = logging.getLogger("fingertip")
 
@@ -145,110 +143,50 @@ def _cmd_tare(args: argparse.Namespace) -> int:
 @_device_errors
 def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
-    import time
+    from ..stream import StreamError, StreamSettings, stream_fingertip, stream_hand
 
     try:
         spec = hand_spec_from_args(args)
     except ValueError as e:
         log.error("%s", e)
         return 2
-    if spec is not None:
-        if args.plot or args.plot_png:
-            log.error("--plot shows one fingertip: stream a hand without it")
-            return 2
-        return stream_hand(args, spec)
-
-    plot = None
-    if args.plot or args.plot_png:
-        from ..live_plot import LivePlot, NoDisplay
-
-        try:
-            plot = LivePlot(4, png=args.plot_png)  # channels fixed below, once known
-        except NoDisplay as e:
-            log.error("%s", e)
-            return 2
-    with _open(args) as ft:
-        fm = None
-        if args.force_model:
-            from ..models.force.force_load import ModelMismatch, force_model_for
-
-            try:
-                fm = force_model_for(ft, args.force_model)
-            except (ModelMismatch, FileNotFoundError, ValueError) as e:
-                log.error("--force-model refused: %s", e)
-                return 2
-        if fm is not None and plot is not None:
-            plot.close()
-            plot = LivePlot(2, png=args.plot_png, labels=["Fx", "Fy"], ylabel="force (N)")
-        elif plot is not None and len(plot.lines) != ft.channels:
-            plot.close()
-            plot = LivePlot(ft.channels, png=args.plot_png)
-        apply_stream_settings(ft, args)
-        if args.tare:
-            ft.tare(samples=args.tare)
-        ft.start()
-        live = sys.stdout.isatty() and not args.json
-        n, t_end = 0, (time.monotonic() + args.duration) if args.duration else None
-        last_print, first = 0.0, None
-        try:
-            while (args.count is None or n < args.count) and \
-                    (t_end is None or time.monotonic() < t_end):
-                f = ft.read(timeout=1.0)
-                if f is None:
-                    if ft.status != "connected":
-                        print(f"\r[{ft.status}]", end="", file=sys.stderr, flush=True)
-                    continue
-                n += 1
-                first = first or f
-                est = fm.estimate_frame(f) if fm is not None else None
-                if plot is not None:
-                    plot.add((f.device_time_us - first.device_time_us) / 1e6,
-                             f.counts if est is None else (est.fx, est.fy))
-                force = "" if est is None else _force_text(est)
-                if args.json:
-                    print(frame_json(f, **_force_fields(est)), flush=True)
-                elif not live:
-                    print(frame_line(f) + force, flush=True)
-                elif f.arrival_time - last_print > 0.1:
-                    last_print = f.arrival_time
-                    span = (f.device_time_us - first.device_time_us) / 1e6
-                    rate = (n - 1) / span if span > 0 else 0.0
-                    st = ft.stats
-                    print(f"\r{n:7d} frames {rate:6.1f}/s  " + " ".join(
-                        f"{c:9d}" for c in f.counts) + force
-                        + f"  lost {st.frames_lost} crc {st.crc_errors}   ", end="", flush=True)
-        except KeyboardInterrupt:
-            pass
-        finally:
-            if live:
-                print()
-            if plot is not None:
-                plot.close()
-            try:
-                ft.stop()
-            except FingertipError:
-                pass
-        st = ft.stats
-        print(f"{n} frames; lost {st.frames_lost}, CRC errors {st.crc_errors}, COBS errors "
-              f"{st.cobs_errors}, reconnects {st.reconnects}, device resets "
-              f"{st.device_resets}", file=sys.stderr)
+    settings = StreamSettings(
+        count=args.count, duration=args.duration, json=args.json, rate=args.rate,
+        decimation=args.decimation, gain=args.gain, tare=args.tare, plot=args.plot,
+        plot_png=args.plot_png, force_model=args.force_model)
+    line = _LiveLine() if sys.stdout.isatty() and not args.json else None
+    try:
+        if spec is not None:
+            res = stream_hand(settings, spec, out=_print_line)
+        else:
+            res = stream_fingertip(settings, port=args.port, serial=args.serial,
+                                   out=_print_line, live=line, waiting=_print_waiting)
+    except StreamError as e:
+        log.error("%s", e)
+        return 2
+    finally:
+        if line is not None and line.used:
+            print()  # the live line stays, the summary goes below it
+    print(res.text(), file=sys.stderr)
     return 0
 
 
-def _force_fields(est) -> dict:
-    """The JSON fields of a force estimate (none without a model)."""
-    if est is None:
-        return {}
-    return {"force_n": [est.fx, est.fy] if est.ok else None,
-            "force_status": int(est.status)}
+def _print_line(text: str) -> None:
+    print(text, flush=True)
 
 
-def _force_text(est) -> str:
-    """``  Fx +1.234 Fy -0.567 N`` (or why there is no estimate)."""
-    if not est.ok:
-        return f"  force: none ({est.status!r})"
-    flag = " (extrapolated)" if est.status else ""
-    return f"  Fx {est.fx:+7.3f} Fy {est.fy:+7.3f} N{flag}"
+def _print_waiting(status: str) -> None:
+    print(f"\r[{status}]", end="", file=sys.stderr, flush=True)
+
+
+class _LiveLine:
+    """A terminal line that each status rewrites."""
+
+    used = False
+
+    def __call__(self, text: str) -> None:
+        self.used = True
+        print(f"\r{text}", end="", flush=True)
 
 
 def _add_device_args(p: argparse.ArgumentParser):

@@ -44,7 +44,7 @@ def _say(line: str) -> None:
 def _record_from(args: argparse.Namespace) -> int:
     """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
     from ..network.record_from import NetworkStartError, record_network
-    from ..record.recorder import RecorderError
+    from ..record.stats import RecorderError
 
     try:
         r = record_network(args.from_net, args.name, args.output, duration=args.duration,

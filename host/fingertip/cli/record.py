@@ -19,7 +19,6 @@ from pathlib import Path
 from ..badfile import reports_bad_files
 from ..hand_args import add_hand_args, hand_spec_from_args
 from .argtypes import dispatch, number
-from .frame_text import frame_json, frame_line
 
 log = logging.getLogger("fingertip")
 
@@ -59,7 +58,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..device import FingertipError
     from ..hand_args import hand_audio_from_args
     from ..protocol import ProtocolVersionError
-    from ..record.recorder import RecorderError
+    from ..transport import DeviceNotFound, TransportError
+    from ..record.stats import RecorderError
     from ..record.schemas import check_name
     from ..record.session import (
         RecordSettings,
@@ -68,7 +68,6 @@ def _cmd_record(args: argparse.Namespace) -> int:
         open_audio,
         record_fingertip,
     )
-    from ..transport import DeviceNotFound, TransportError
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
@@ -156,6 +155,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     frames as `fingertip stream` does."""
     from ..record.reader import RecordingError
     from ..record.replay import Replay
+    from ..stream.text import frame_json, frame_line
 
     try:
         rp = Replay(args.file, args.name,

@@ -1,16 +1,10 @@
 """Device layer: a fingertip's commands, streams, counters and clock mapping."""
-from .fingertip import (
-    BridgeStats,
-    CommandFailed,
-    CommandTimeout,
-    Fingertip,
-    FingertipError,
-    Frame,
-    NotConnected,
-    Settings,
-)
+from .errors import CommandFailed, CommandTimeout, FingertipError, NotConnected
+from .fingertip import Fingertip
+from .frames import Frame
 from .hand import FingerFrame, Hand
 from .reader import SharedReader
+from .state import BridgeStats, Settings
 from .timesync import ClockFit, ClockSync, Unwrapper
 
 __all__ = ["BridgeStats", "ClockFit", "ClockSync", "CommandFailed", "CommandTimeout",

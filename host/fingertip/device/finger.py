@@ -11,8 +11,11 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .fingertip import BridgeStats, Fingertip, Frame, check_tare_samples
+from .errors import check_tare_samples
+from .fingertip import Fingertip
+from .frames import Frame
 from .hand import Hand
+from .state import BridgeStats
 
 
 @dataclass(frozen=True)

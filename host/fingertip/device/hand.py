@@ -12,7 +12,9 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from ..protocol import MAX_CHANNELS
-from .fingertip import Fingertip, FingertipError, Frame, NotConnected, check_tare_samples
+from .errors import FingertipError, NotConnected, check_tare_samples
+from .fingertip import Fingertip
+from .frames import Frame
 
 
 @dataclass(frozen=True, slots=True)

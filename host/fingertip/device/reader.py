@@ -15,14 +15,30 @@ import logging
 import os
 import selectors
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ..transport import TransportError
 
-if TYPE_CHECKING:
-    from .fingertip import Fingertip
-
 log = logging.getLogger(__name__)
+
+
+class SharedDevice(Protocol):
+    """What the shared reader asks of a device it reads (a
+    :class:`~fingertip.device.Fingertip` offers it)."""
+
+    def read_available(self) -> None:
+        """Take the bytes its readable port holds, without waiting."""
+
+    def read_failed(self, error: TransportError) -> None:
+        """Its port failed while the shared thread read it (already dropped from it):
+        recover on a thread of its own."""
+
+    @property
+    def needs_own_reader(self) -> bool:
+        """It must go back to a thread of its own for now (a verdict on its identity)."""
+
+    def start_own_reader(self) -> None:
+        """Read its port on a thread of its own from now on."""
 
 
 def stream_fileno(stream: Any) -> int | None:
@@ -44,23 +60,23 @@ class SharedReader:
     def __init__(self, name: str = "fingertip-reader-shared") -> None:
         self.name = name
         self._lock = threading.Lock()
-        self._changes: list[tuple[str, Fingertip, int, threading.Event]] = []
-        self._members: dict[int, Fingertip] = {}  # fd -> device; the reader thread's own
+        self._changes: list[tuple[str, SharedDevice, int, threading.Event]] = []
+        self._members: dict[int, SharedDevice] = {}  # fd -> device; the reader thread's own
         self._thread: threading.Thread | None = None
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         self.wakeups = 0
         """Times the thread woke with data (a figure for benchmarks and tests)."""
 
-    def add(self, ft: Fingertip, fd: int) -> None:
+    def add(self, ft: SharedDevice, fd: int) -> None:
         """Read ``ft``'s port (descriptor ``fd``) here from now on; returns at once."""
         self._change("add", ft, fd, wait=False)
 
-    def remove(self, ft: Fingertip) -> None:
+    def remove(self, ft: SharedDevice) -> None:
         """Stop reading ``ft``; once this returns, this thread no longer touches its stream."""
         self._change("remove", ft, -1, wait=True)
 
-    def _change(self, what: str, ft: Fingertip, fd: int, wait: bool) -> None:
+    def _change(self, what: str, ft: SharedDevice, fd: int, wait: bool) -> None:
         done = threading.Event()
         with self._lock:
             self._changes.append((what, ft, fd, done))
@@ -120,20 +136,20 @@ class SharedReader:
                         continue  # dropped earlier in this same wake-up
                     self.wakeups += 1
                     try:
-                        ft._read_available()
+                        ft.read_available()
                     except TransportError as e:
                         self._drop(sel, key.fd)  # before the stream closes under the fd
-                        ft._lost_on_shared(e)
+                        ft.read_failed(e)
                 for fd, ft in list(self._members.items()):
-                    if ft._verdict is not None:  # a foreign device or a release: its own
-                        self._drop(sel, fd)      # thread applies it, as after a reconnect
-                        ft._start_own_reader()
+                    if ft.needs_own_reader:  # a foreign device or a release: its own
+                        self._drop(sel, fd)  # thread applies it, as after a reconnect
+                        ft.start_own_reader()
         except Exception:  # never leave the devices unread without saying why
             log.exception("%s: the shared reader failed; its devices read on their own",
                           self.name)
             for fd, ft in list(self._members.items()):
                 self._drop(sel, fd)
-                ft._start_own_reader()
+                ft.start_own_reader()
             with self._lock:
                 self._thread = None
         finally:

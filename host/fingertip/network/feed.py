@@ -21,7 +21,7 @@ from typing import Any, Protocol
 from ..audio import AudioSource, Chunk
 from ..device import Frame
 from ..record import schemas as S
-from ..record.recorder import audio_payload, device_info, frame_message, xyz
+from ..record.encoding import audio_payload, device_info, frame_message, xyz
 from ..record.timebase import TimeBase
 
 log = logging.getLogger(__name__)

@@ -19,7 +19,7 @@ from typing import Any
 
 from ..device import FingertipError
 from ..models.vibration.classify import to_float
-from ..record.recorder import device_info
+from ..record.encoding import device_info
 from ..record.schemas import AUDIO_ENCODINGS
 from .feed import Feed
 from .hand import pump_hand_audio

@@ -22,8 +22,8 @@ _WHERE = {
     "ExportError": "export", "ExportResult": "export", "export": "export",
     "ChannelInfo": "reader", "Record": "reader", "Recording": "reader",
     "RecordingError": "reader",
-    "ForceModel": "recorder", "Recorder": "recorder", "RecorderError": "recorder",
-    "RecorderStats": "recorder",
+    "ForceModel": "encoding", "Recorder": "recorder", "RecorderError": "stats",
+    "RecorderStats": "stats",
     "RecordedEvent": "replay", "Replay": "replay", "ReplayAudioSource": "replay",
     "Wrench": "replay",
     "SCHEMAS": "schemas", "TOPIC_KINDS": "schemas", "topic": "schemas",
@@ -58,7 +58,9 @@ def __dir__() -> list[str]:
 if TYPE_CHECKING:  # for type checkers and IDEs
     from .export import ExportError, ExportResult, export
     from .reader import ChannelInfo, Record, Recording, RecordingError
-    from .recorder import ForceModel, Recorder, RecorderError, RecorderStats
+    from .encoding import ForceModel
+    from .recorder import Recorder
+    from .stats import RecorderError, RecorderStats
     from .replay import RecordedEvent, Replay, ReplayAudioSource, Wrench
     from .schemas import SCHEMAS, TOPIC_KINDS, topic
     from .timebase import TimeBase

@@ -30,7 +30,7 @@ from mcap.records import Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader
 
 from . import schemas as S
-from .recorder import METADATA_NAME
+from .writer import METADATA_NAME
 from .timebase import TimeBase
 
 MAGIC = b"\x89MCAP0\r\n"

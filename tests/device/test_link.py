@@ -4,7 +4,7 @@ the writer's feet.
 Under CPU load the restorer's GET_INFO was once in pyserial's write() when the reader closed
 the port after a loss: pyserial raised a TypeError (its fd was None), which killed the
 restorer thread, so the right device was never taken back
-(test_reconnect_identity.py failed 1 in 17 runs with two busy loops on two cores).
+(test_restore.py failed 1 in 17 runs with two busy loops on two cores).
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import TransportError, open_serial
 
-from .test_fingertip_pty import wait_for
+from .waiting import wait_for
 
 
 class SlowWriteStream:
@@ -112,3 +112,8 @@ def test_a_write_racing_a_close_is_a_transport_error(tmp_path):
         s._ser.is_open = False
     finally:
         dev.stop()
+
+
+def test_missing_port_is_a_clear_error(tmp_path):
+    with pytest.raises(TransportError, match="does not exist"):
+        Fingertip(str(tmp_path / "nope")).open()

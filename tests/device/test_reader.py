@@ -2,16 +2,19 @@
 fingertips, against virtual devices on real ptys."""
 from __future__ import annotations
 
+import os
 import threading
 
 import pytest
 
 from fingertip import Fingertip
 from fingertip.device import FingertipError, SharedReader
+from fingertip.device.reader import SharedDevice
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
+from fingertip.transport import TransportError
 
-from .test_fingertip_pty import wait_for
+from .waiting import wait_for
 
 
 def _fw(k: int) -> VirtualFirmware:
@@ -86,3 +89,54 @@ def test_unplugged_device_reconnects_and_returns_to_the_shared_thread(devices):
         assert a.stats.reconnects == 1
         assert wait_for(lambda: _reader_threads() == ["fingertip-reader-shared"], 2.0)
     reader.close()
+
+
+class PipeDevice:
+    """Any device that offers :class:`SharedDevice` is read by the shared thread (here the
+    read end of a real pipe; nothing of a Fingertip)."""
+
+    def __init__(self) -> None:
+        self.r, self.w = os.pipe()
+        os.set_blocking(self.r, False)
+        self.got = bytearray()
+        self.failed: list[Exception] = []
+        self.own_reader_started = threading.Event()
+        self.fail_next = False
+        self.needs_own_reader = False
+
+    def read_available(self) -> None:
+        if self.fail_next:
+            raise TransportError("the pipe went away")
+        self.got += os.read(self.r, 4096)
+
+    def read_failed(self, error: TransportError) -> None:
+        self.failed.append(error)
+
+    def start_own_reader(self) -> None:
+        self.own_reader_started.set()
+
+
+def test_the_shared_reader_needs_only_the_shared_device_protocol():
+    reader = SharedReader()
+    dev, lost, verdict = PipeDevice(), PipeDevice(), PipeDevice()
+    device: SharedDevice = dev  # what a type checker accepts, the reader takes
+    try:
+        for d in (device, lost, verdict):
+            reader.add(d, d.r)
+        os.write(dev.w, b"abc")
+        assert wait_for(lambda: bytes(dev.got) == b"abc", 2.0)
+        lost.fail_next = True
+        os.write(lost.w, b"x")  # readable, and reading it fails: dropped, told, not retried
+        assert wait_for(lambda: len(lost.failed) == 1, 2.0)
+        verdict.needs_own_reader = True  # dropped and handed back to its own thread
+        assert verdict.own_reader_started.wait(2.0)
+        os.write(dev.w, b"def")
+        assert wait_for(lambda: bytes(dev.got) == b"abcdef", 2.0)
+        assert len(lost.failed) == 1 and reader.wakeups >= 2
+        reader.remove(dev)
+        assert wait_for(lambda: not _reader_threads(), 2.0)  # no member left: the thread ends
+    finally:
+        reader.close()
+        for d in (dev, lost, verdict):
+            os.close(d.r)
+            os.close(d.w)

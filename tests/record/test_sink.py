@@ -1,0 +1,58 @@
+"""The recording's file: clear errors where it cannot be created or written."""
+from __future__ import annotations
+
+import errno
+import os
+import time
+from pathlib import Path
+
+import pytest
+
+from fingertip.record import Recorder, RecorderError, Recording
+from fingertip.record.sink import io_error
+
+
+def test_unwritable_places_are_clear_errors(tmp_path):
+    ro = tmp_path / "readonly"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        if os.access(ro, os.W_OK):  # root ignores the mode: use a filesystem that refuses
+            target = "/sys/fingertip-test.mcap"
+        else:
+            target = str(ro / "x.mcap")
+        with pytest.raises(RecorderError, match="cannot create .*(Permission denied|"
+                                                "Read-only)"):
+            Recorder(target).start()
+    finally:
+        ro.chmod(0o755)
+    with pytest.raises(RecorderError, match="does not exist"):
+        Recorder(tmp_path / "no" / "such" / "dir.mcap").start()
+    with pytest.raises(RecorderError, match="is a directory"):
+        Recorder(tmp_path).start()
+    existing = tmp_path / "old.mcap"
+    existing.write_bytes(b"keep me")
+    with pytest.raises(RecorderError, match="already exists"):
+        Recorder(existing).start()
+    assert existing.read_bytes() == b"keep me"
+    Recorder(existing, overwrite=True).start().close()
+    assert Recording(existing).complete
+
+
+def test_dev_full_fails_at_start():
+    t0 = time.monotonic()
+    with pytest.raises(RecorderError, match="No space left on device.*full"):
+        Recorder("/dev/full").start()
+    assert time.monotonic() - t0 < 1.0
+
+
+def test_io_errors_say_why():
+    p = Path("/data/run.mcap")
+    assert str(io_error(p, OSError(errno.ENOSPC, "No space left on device"), "writing failed:")
+               ) == ("writing failed: /data/run.mcap: No space left on device (the disk or "
+                     "quota is full, or the file hit a size limit)")
+    assert "(no permission to write there)" in str(
+        io_error(p, OSError(errno.EACCES, "Permission denied"), "cannot create"))
+    assert "(the folder /data does not exist)" in str(
+        io_error(p, OSError(errno.ENOENT, "No such file"), "cannot create"))
+    assert str(io_error(p, OSError(errno.EIO, "I/O error"), "x")) == "x /data/run.mcap: I/O error"
