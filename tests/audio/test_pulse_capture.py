@@ -169,11 +169,11 @@ def test_stalled_callback_loses_nothing(pulse_server, wav):
     class Stalling(SoundDeviceSource):
         calls = 0
 
-        def _callback(self, indata, frames, time_info, status):
+        def callback(self, indata, frames, time_info, status):
             Stalling.calls += 1
             if Stalling.calls == 100 + 80:  # about 0.4 s into the played signal
                 time.sleep(1.0)
-            super()._callback(indata, frames, time_info, status)
+            super().callback(indata, frames, time_info, status)
 
     src = Stalling("pulse", FS, 1, "int16", buffer_seconds=30)
     chunks, _ = capture_while_playing(pulse_server, path, src)
