@@ -191,6 +191,23 @@ def _through_the_root(target: list[str], exports: dict[str, list[str]]) -> list[
     return target
 
 
+SIM_ORDER = ("physics", "device", "world", "mujoco")
+"""Inside ``sim``, each sub-package may import only itself and those before it here."""
+
+
+def _sim_inner(name: list[str], target: list[str]) -> str | None:
+    """Why an import inside ``sim`` goes up its inner order (docs/design.md), else None."""
+    here = name[2] if name[1:2] == ["sim"] and len(name) > 2 else None
+    if here not in SIM_ORDER or target[1:2] != ["sim"]:
+        return None
+    there = target[2] if len(target) > 2 else None
+    if here == "physics" and there != "physics":
+        return "sim.physics is the bottom of sim"
+    if there in SIM_ORDER and SIM_ORDER.index(there) > SIM_ORDER.index(here):
+        return f"sim.{there} is above sim.{here}"
+    return None
+
+
 def check_layers(package: Path, ranks: dict[str, int]) -> tuple[list[Violation], list[str]]:
     """The upward imports in ``package``, and its top-level names that no row places."""
     unplaced = sorted({p.relative_to(package).parts[0].removesuffix(".py")
@@ -212,10 +229,9 @@ def check_layers(package: Path, ranks: dict[str, int]) -> tuple[list[Violation],
             if (imp.line, dst) in seen:
                 continue  # `from ..sim import a, b`: one upward import
             seen.add((imp.line, dst))
-            if src == "sim" and name[2:3] == ["physics"] and target[1] == "sim" \
-                    and target[2:3] != ["physics"]:
-                bad.append(Violation(mod, imp.line, ".".join(target),
-                                     "sim.physics is the bottom of sim"))
+            why = _sim_inner(name, target)
+            if why:
+                bad.append(Violation(mod, imp.line, ".".join(target), why))
             if dst == src or dst not in ranks or src not in ranks:
                 continue
             if ranks[dst] >= ranks[src]:
@@ -368,6 +384,20 @@ def test_the_checker_keeps_sim_physics_at_the_bottom_of_sim(tmp_path):
                            "sim/world/__init__.py": ""})
     bad, _ = check_layers(pkg, {"sim": 6})
     assert [v.why for v in bad] == ["sim.physics is the bottom of sim"]
+
+
+@pytest.mark.parametrize("text, why", [
+    ("from ..world import hand\n", "sim.world is above sim.device"),
+    ("def f():\n    from ..mujoco import scene\n", "sim.mujoco is above sim.device"),
+    ("from ..physics import strain\n", None),
+])
+def test_the_checker_keeps_the_order_inside_sim(tmp_path, text, why):
+    """physics < device < world < mujoco: the virtual device never reaches into the world."""
+    pkg = _tree(tmp_path, {"__init__.py": "", "sim/__init__.py": "", "sim/device/__init__.py": "",
+                           "sim/device/pty.py": text, "sim/physics/__init__.py": "",
+                           "sim/world/__init__.py": "", "sim/mujoco/__init__.py": ""})
+    bad, _ = check_layers(pkg, {"sim": 6})
+    assert [v.why for v in bad] == ([why] if why else [])
 
 
 FT, FRAMES = "fingertip.device.fingertip", "fingertip.device.frames"
