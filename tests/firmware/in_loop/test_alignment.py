@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.fil.alignment import measure
+from tests.firmware.in_loop.alignment import measure
 
 
 @pytest.mark.slow
