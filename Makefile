@@ -41,7 +41,7 @@ help:
 	@echo "  make drumkits     fetch the pinned hydrogen-drumkits (GPL kits) into build/ for make bench"
 	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
-	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
+	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options, PYTEST_WORKERS=N)"
 	@echo "  make lint         ruff on host/, tests/, pcb/ and mechanical/"
 	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
 	@echo "  make cad          STL, STEP and PNG of every part into build/cad (CAD_ARGS=--set ...)"
@@ -127,11 +127,22 @@ sim: system-packages
 lint: venv
 	$(VENV)/bin/ruff check host tests pcb mechanical
 
-# pytest exits 5 when it collected nothing: that must fail, never pass as "green".
+# pytest in two passes: the tests not marked `realtime` spread over PYTEST_WORKERS processes
+# (pytest-xdist; tests marked xdist_group share one), then the `realtime` ones (they assert on
+# wall-clock time) one at a time, with no other test beside them. PYTEST_ARGS goes to both.
+# pytest exits 5 when it collected nothing: when neither pass ran a test, that must fail,
+# never pass as "green"; one pass may be empty (PYTEST_ARGS=tests/protocol has no realtime
+# test).
+PYTEST_WORKERS ?= 3
 test-python: venv venv-fab pcb-tools hostlib
-	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
-	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
-	exit $$rc
+	@rc1=0; rc2=0; \
+	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -m "not realtime" $(PYTEST_ARGS) \
+	    || rc1=$$?; \
+	$(VPY) -m pytest -n 0 -m realtime $(PYTEST_ARGS) || rc2=$$?; \
+	if [ $$rc1 -eq 5 ] && [ $$rc2 -eq 5 ]; then \
+	    echo "pytest collected no tests: failing" >&2; exit 1; fi; \
+	for rc in $$rc1 $$rc2; do \
+	    if [ $$rc -ne 0 ] && [ $$rc -ne 5 ]; then exit $$rc; fi; done
 
 # The virtual fingertip end to end: physics -> the firmware in simavr -> bridge -> events.
 demo: setup

@@ -135,6 +135,7 @@ def test_missing_device_and_bad_settings_are_clear(pulse_server):
         SoundDeviceSource("pulse", FS, channels=64).start()
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("dtype,channels", [("int16", 1), ("int32", 1), ("float32", 1),
                                             ("int16", 2)])
 def test_capture_is_bit_exact_and_well_timed(pulse_server, wav, dtype, channels):
@@ -162,6 +163,7 @@ def test_capture_is_bit_exact_and_well_timed(pulse_server, wav, dtype, channels)
     assert -0.05 < t_signal - (t_launch + lead / FS) < 0.5
 
 
+@pytest.mark.realtime
 def test_stalled_callback_loses_nothing(pulse_server, wav):
     """The server buffers while the callback is stuck: no loss, no false clock step."""
     path, x = wav

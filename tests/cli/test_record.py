@@ -143,6 +143,7 @@ def test_user_errors_are_one_clear_line(device, tmp_path, capsys, caplog):
     capsys.readouterr()
 
 
+@pytest.mark.realtime
 def test_disk_filling_up_mid_recording_exits_1(device, tmp_path):
     """A file-size limit (RLIMIT_FSIZE, as a full quota would) hits while recording: one
     error line, exit code 1, promptly, and the file is readable up to the failure."""

@@ -66,6 +66,7 @@ def test_nack_becomes_a_clear_exception(device):
             ft.tare(channels=[7])
 
 
+@pytest.mark.realtime
 def test_reconnect_after_unplug_restores_the_setup(device):
     with Fingertip(str(device.link)) as ft:
         ft.set_rate(80, 2)
@@ -151,6 +152,7 @@ def test_callbacks_and_overrun_counting(device):
         assert len(ft.drain()) == 5
 
 
+@pytest.mark.realtime
 def test_a_late_answer_to_an_earlier_attempt_completes_the_command(tmp_path):
     """A device that answers every command 0.7 s late (a process starved by CPU load, as the
     pty device in the recorder tests once was: "no answer to Start within 0.50 s"). The

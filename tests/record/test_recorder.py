@@ -98,6 +98,7 @@ def test_timebase_maps_stamps_back_to_monotonic(session):
     assert rec.start_unix_ns <= raws[0].stamp_ns
 
 
+@pytest.mark.realtime
 def test_readable_while_recording_up_to_the_last_flush(device, tmp_path):
     """What a crash would leave: the file as it is on disk during the recording."""
     from fingertip import Fingertip
@@ -187,6 +188,7 @@ def test_unwritable_places_are_clear_errors(tmp_path):
     assert Recording(existing).complete
 
 
+@pytest.mark.realtime
 def test_dev_full_fails_at_start():
     t0 = time.monotonic()
     with pytest.raises(RecorderError, match="No space left on device.*full"):
@@ -194,6 +196,7 @@ def test_dev_full_fails_at_start():
     assert time.monotonic() - t0 < 1.0
 
 
+@pytest.mark.realtime
 def test_disk_full_during_recording_stops_cleanly(tmp_path, monkeypatch):
     """ENOSPC after some chunks: the error is reported, producers never block, the chunks
     already written stay readable."""
