@@ -12,9 +12,9 @@ from fingertip.record import schemas as S
 from .conftest import start, wait_line
 from .test_dds_stream import FORCE_MODEL, by_topic
 
-# LSL finds streams by name anywhere on the machine and has no domains: these tests share
-# one pytest-xdist worker, so that one's subscriber never meets the other's publisher.
-pytestmark = pytest.mark.xdist_group("lsl")
+# LSL finds streams by name anywhere on the machine and has no domains: every LSL test lives
+# in this module, which make test hands to one pytest-xdist worker (--dist loadscope), so one
+# test's subscriber never meets another's publisher.
 
 
 def decoded(path, kind):
