@@ -81,18 +81,21 @@ $(STAMPS)/venv-fab: $(STAMPS)/venv
 
 # --- build and test -------------------------------------------------------------------------
 
-# The C++ builds compile on every core (NPROC jobs): the same checks, a shorter wait.
+# The C++ builds compile on every core (NPROC jobs): the same checks, a shorter wait. Each
+# step prints its wall time at the end ("make test: STEP took N s"), so a slow one shows.
 NPROC := $(shell nproc 2>/dev/null || echo 2)
+STEP = @t0=$$(date +%s); $(MAKE) --no-print-directory $(2); \
+	echo "make test: $(1) took $$(( $$(date +%s) - t0 )) s"
 test: setup
-	$(MAKE) --no-print-directory -j$(NPROC) test-native
-	$(MAKE) --no-print-directory -j$(NPROC) test-fuzz
-	$(MAKE) --no-print-directory -j$(NPROC) firmware
-	$(MAKE) --no-print-directory -j$(NPROC) sim
-	$(MAKE) --no-print-directory -j$(NPROC) hostlib
-	$(MAKE) --no-print-directory -C firmware/sim selftest
-	$(MAKE) --no-print-directory lint
-	$(MAKE) --no-print-directory pcb-check
-	$(MAKE) --no-print-directory test-python
+	$(call STEP,test-native,-j$(NPROC) test-native)
+	$(call STEP,test-fuzz,-j$(NPROC) test-fuzz)
+	$(call STEP,firmware,-j$(NPROC) firmware)
+	$(call STEP,sim,-j$(NPROC) sim)
+	$(call STEP,hostlib,-j$(NPROC) hostlib)
+	$(call STEP,selftest,-C firmware/sim selftest)
+	$(call STEP,lint,lint)
+	$(call STEP,pcb-check,pcb-check)
+	$(call STEP,test-python,test-python)
 
 test-native: system-packages
 	$(MAKE) --no-print-directory -C firmware test-native
