@@ -88,6 +88,18 @@ def _import_module_call(node: ast.Call, name: list[str], here: list[str],
     return base + (rest.split(".") if rest else [])
 
 
+def _from_module(node: ast.ImportFrom, here: list[str], top: str) -> list[str] | None:
+    """The absolute module of ``from MODULE import ...`` in package ``here``; None when it
+    is outside the package ``top``."""
+    if node.level:
+        base = here[:len(here) - (node.level - 1)]
+    elif node.module and node.module.split(".")[0] == top:
+        base = []
+    else:
+        return None
+    return base + (node.module.split(".") if node.module else [])
+
+
 class _Finder(ast.NodeVisitor):
     """Collects every import of the package in one module, noting whether it runs when the
     module is imported (class bodies do; function bodies do not)."""
@@ -113,15 +125,9 @@ class _Finder(ast.NodeVisitor):
                 self._add(node, a.name.split("."))
 
     def visit_ImportFrom(self, node: ast.ImportFrom) -> None:
-        if node.level:
-            base = self.here[:len(self.here) - (node.level - 1)]
-        elif node.module and node.module.split(".")[0] == self.top:
-            base = []
-        else:
-            return
-        target = base + (node.module.split(".") if node.module else [])
+        target = _from_module(node, self.here, self.top)
         # `from fingertip import sim`, `from . import frames`: each name may be a module.
-        for a in node.names:
+        for a in node.names if target is not None else ():
             self._add(node, target + [a.name])
 
     def visit_Attribute(self, node: ast.Attribute) -> None:
@@ -170,17 +176,10 @@ def root_exports(package: Path) -> dict[str, list[str]]:
         return {}
     out: dict[str, list[str]] = {}
     for node in ast.walk(ast.parse(init.read_text(), str(init))):
-        if not isinstance(node, ast.ImportFrom):
-            continue
-        if node.level:
-            base = [package.name]
-        elif node.module and node.module.split(".")[0] == package.name:
-            base = []
-        else:
-            continue
-        base = base + (node.module.split(".") if node.module else [])
-        for a in node.names:
-            out[a.asname or a.name] = base + [a.name]
+        if isinstance(node, ast.ImportFrom):
+            base = _from_module(node, [package.name], package.name)
+            for a in node.names if base is not None else ():
+                out[a.asname or a.name] = base + [a.name]
     return out
 
 
