@@ -41,7 +41,7 @@ help:
 	@echo "  make drumkits     fetch the pinned hydrogen-drumkits (GPL kits) into build/ for make bench"
 	@echo "  make soak         the soak test (SOAK_MINUTES=30): devices killed, memory, files"
 	@echo "  make fuzz         libFuzzer on the firmware's decoder and receiver (FUZZ_SECONDS=600 each)"
-	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options)"
+	@echo "  make test-python  only pytest (PYTEST_ARGS=... to pass options, PYTEST_WORKERS=N)"
 	@echo "  make lint         ruff on host/, tests/, studies/, pcb/ and mechanical/"
 	@echo "  make pcb          KiCad checks and fabrication outputs (pcb/pcb.mk)"
 	@echo "  make cad          STL, STEP and PNG of every part into build/cad (CAD_ARGS=--set ...)"
@@ -81,16 +81,21 @@ $(STAMPS)/venv-fab: $(STAMPS)/venv
 
 # --- build and test -------------------------------------------------------------------------
 
+# The C++ builds compile on every core (NPROC jobs): the same checks, a shorter wait. Each
+# step prints its wall time at the end ("make test: STEP took N s"), so a slow one shows.
+NPROC := $(shell nproc 2>/dev/null || echo 2)
+STEP = @t0=$$(date +%s); $(MAKE) --no-print-directory $(2); \
+	echo "make test: $(1) took $$(( $$(date +%s) - t0 )) s"
 test: setup
-	$(MAKE) --no-print-directory test-native
-	$(MAKE) --no-print-directory test-fuzz
-	$(MAKE) --no-print-directory firmware
-	$(MAKE) --no-print-directory sim
-	$(MAKE) --no-print-directory hostlib
-	$(MAKE) --no-print-directory -C firmware/sim selftest
-	$(MAKE) --no-print-directory lint
-	$(MAKE) --no-print-directory pcb-check
-	$(MAKE) --no-print-directory test-python
+	$(call STEP,test-native,-j$(NPROC) test-native)
+	$(call STEP,test-fuzz,-j$(NPROC) test-fuzz)
+	$(call STEP,firmware,-j$(NPROC) firmware)
+	$(call STEP,sim,-j$(NPROC) sim)
+	$(call STEP,hostlib,-j$(NPROC) hostlib)
+	$(call STEP,selftest,-C firmware/sim selftest)
+	$(call STEP,lint,lint)
+	$(call STEP,pcb-check,pcb-check)
+	$(call STEP,test-python,test-python)
 
 test-native: system-packages
 	$(MAKE) --no-print-directory -C firmware test-native
@@ -99,7 +104,8 @@ firmware: system-packages
 	$(MAKE) --no-print-directory -C firmware all
 
 # libFuzzer on the firmware's COBS decoder and command receiver, seeded from the shared
-# vectors: 30 s per target in `make test` (60 s in all), FUZZ_SECONDS per target in `make fuzz`.
+# vectors: 30 s per target in `make test`, FUZZ_SECONDS per target in `make fuzz`; the two
+# targets run side by side, one core each (30 s of wall time on two cores).
 FUZZ_SECONDS ?= 600
 .PHONY: test-fuzz fuzz
 test-fuzz: system-packages
@@ -127,11 +133,23 @@ sim: system-packages
 lint: venv
 	$(VENV)/bin/ruff check host tests pcb mechanical studies
 
-# pytest exits 5 when it collected nothing: that must fail, never pass as "green".
+# pytest in two passes: the tests not marked `realtime` spread over PYTEST_WORKERS processes
+# (pytest-xdist, a module at a time: its module fixtures are built once, its tests never run
+# beside one another), then the `realtime` ones (they assert on wall-clock time) one at a
+# time, with no other test beside them. PYTEST_ARGS goes to both.
+# pytest exits 5 when it collected nothing: when neither pass ran a test, that must fail,
+# never pass as "green"; one pass may be empty (PYTEST_ARGS=tests/protocol has no realtime
+# test).
+PYTEST_WORKERS ?= 3
 test-python: venv venv-fab pcb-tools hostlib
-	@rc=0; $(VPY) -m pytest $(PYTEST_ARGS) || rc=$$?; \
-	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing" >&2; exit 1; fi; \
-	exit $$rc
+	@rc1=0; rc2=0; \
+	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadscope -m "not realtime" $(PYTEST_ARGS) \
+	    || rc1=$$?; \
+	$(VPY) -m pytest -n 0 -m realtime $(PYTEST_ARGS) || rc2=$$?; \
+	if [ $$rc1 -eq 5 ] && [ $$rc2 -eq 5 ]; then \
+	    echo "pytest collected no tests: failing" >&2; exit 1; fi; \
+	for rc in $$rc1 $$rc2; do \
+	    if [ $$rc -ne 0 ] && [ $$rc -ne 5 ]; then exit $$rc; fi; done
 
 # The virtual fingertip end to end: physics -> the firmware in simavr -> bridge -> events.
 demo: setup

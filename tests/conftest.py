@@ -33,6 +33,15 @@ def vectors() -> dict:
 
 
 @pytest.fixture
+def tasks_cache(tmp_path_factory, monkeypatch) -> Path:
+    """One cache of the simulated world's models (a force model per virtual unit, the shake
+    MLP) for the session: the task tests and `fingertip experiment` train each once."""
+    d = tmp_path_factory.getbasetemp() / "tasks-models"
+    monkeypatch.setenv("FINGERTIP_TASKS_CACHE", str(d))
+    return d
+
+
+@pytest.fixture
 def fil_builds() -> None:
     """Fail clearly when the simavr harness or the 4-channel firmware has not been built."""
     from fingertip.sim.device.simavr import HarnessError, firmware_elf, harness_binary

@@ -2,9 +2,26 @@
 and the PNG summary; the detected events agree with the scene's ground truth."""
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import pytest
 
 from fingertip.demo import demo_scene, rim_truth, run_demo
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def readme_quick_start() -> str:
+    text = README.read_text(encoding="utf-8")
+    return text[text.index("## Quick start"):text.index("![demo summary]")]
+
+
+def test_the_readme_gives_the_scenes_length():
+    """The quick start's scene length is the demo's (the rest it quotes, the demo prints)."""
+    m = re.search(r"plays a (\d+) s scripted\s+scene", readme_quick_start())
+    assert m, "the quick start no longer says how long the scene is"
+    assert int(m.group(1)) == round(demo_scene().duration_s)
 
 
 @pytest.mark.slow
@@ -15,6 +32,15 @@ def test_demo_on_the_firmware(tmp_path):
     assert r.stats["frames_lost"] == 0 and r.stats["crc_errors"] == 0
     assert r.stats["frames"] > 80 * 12 * 0.95
     assert r.stats["audio_overflows"] == 0
+    # The quick start quotes the calibration line the demo prints (same unit: the CLI's
+    # default seed is run_demo's): the model kept and its error, to 5 mN.
+    quoted = re.search(r"`force model: (\w+), held-out RMSE ([\d.]+) N`", readme_quick_start())
+    got = re.fullmatch(r"(\w+), held-out RMSE ([\d.]+) N", r.calibration)
+    assert quoted and got, (r.calibration, "the README no longer quotes the demo's force model")
+    assert quoted.group(1) == got.group(1), (quoted.group(0), r.calibration)
+    assert abs(float(quoted.group(2)) - float(got.group(2))) <= 0.005, (quoted.group(0),
+                                                                        r.calibration)
+    assert r.seconds > demo_scene().duration_s
     # The recording holds the frames, the audio and the events, and replays as a device.
     from fingertip.record import Recording, Replay
 
@@ -41,3 +67,15 @@ def test_demo_on_the_firmware(tmp_path):
     rims = rim_truth(demo_scene())["rims"]
     for rim in rims:
         assert min(abs(o - rim) for o in onsets) < 0.02, (rim, onsets)
+
+
+def test_the_command_runs_the_unit_the_readme_quotes():
+    """`make demo` runs `fingertip demo` with its default seed: the unit run_demo defaults to."""
+    import argparse
+    import inspect
+
+    from fingertip.cli.demo import add_parsers
+
+    p = argparse.ArgumentParser()
+    add_parsers(p.add_subparsers())
+    assert p.parse_args(["demo"]).seed == inspect.signature(run_demo).parameters["seed"].default

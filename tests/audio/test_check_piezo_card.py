@@ -18,6 +18,7 @@ pytestmark = pytest.mark.slow
 FS = 44100
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("faults,expect", [((), "pass"), (("piezo-humming",), "fail")])
 def test_card_capture_of_taps(pulse_server, tmp_path, faults, expect):
     from fingertip.sim.device.faults import parse_faults

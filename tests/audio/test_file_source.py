@@ -73,6 +73,7 @@ def test_small_reads_split_blocks_without_losing_frames(tmp_path):
     assert chunks[0].sample_rate == 48000
 
 
+@pytest.mark.realtime
 def test_realtime_pacing_follows_the_wall_clock(tmp_path):
     x = pcm(16, 1, FS // 4)  # 0.25 s
     path = tmp_path / "x.wav"

@@ -39,8 +39,7 @@ class Status:
 def prepared(device: InputDevice, timestamps: str = "auto", latency: float = 0.005,
              channels: int = 1) -> SoundDeviceSource:
     src = SoundDeviceSource(device.index, FS, channels, "int16", timestamps=timestamps)
-    src._prepare(device)
-    src._running = True
+    src.start_external(device)
     src.latency = latency
     return src
 
@@ -62,11 +61,11 @@ def drive(src: SoundDeviceSource, seconds: float, *, skew_ppm: float = 0.0, bloc
         t_first = t0 + k / FS * (1 + skew)
         t_end = t0 + (k + block) / FS * (1 + skew)
         now = t_end + latency + rng.expovariate(1 / 0.0015)
-        src._now = lambda now=now: now
+        src.clock = lambda now=now: now
         data = (np.arange(k, k + block) % 30000).astype(np.int16).reshape(-1, 1)
         data = np.repeat(data, src.channels, axis=1)
         cur = now - rng.uniform(0, 0.0003) + STREAM_CLOCK
-        src._callback(data, block, TimeInfo(adc(i, t_first + STREAM_CLOCK), cur),
+        src.callback(data, block, TimeInfo(adc(i, t_first + STREAM_CLOCK), cur),
                       status(i) or Status())
         truth.append((k, t_first))
         k += block
@@ -149,8 +148,8 @@ def test_overflow_flags_are_counted_and_logged(caplog):
 
 def test_errors_in_the_callback_are_counted_not_raised(caplog):
     src = prepared(PULSE)
-    src._callback(np.zeros((10, 3), np.int16), 10, TimeInfo(0.0, 0.0), Status())
-    src._callback(np.zeros((10, 3), np.int16), 10, TimeInfo(0.0, 0.0), Status())
+    src.callback(np.zeros((10, 3), np.int16), 10, TimeInfo(0.0, 0.0), Status())
+    src.callback(np.zeros((10, 3), np.int16), 10, TimeInfo(0.0, 0.0), Status())
     assert src.stats.callback_errors == 2 and src.stats.frames == 0
     with caplog.at_level(logging.ERROR, logger="fingertip.audio"):
         src.read(timeout=0)
@@ -159,8 +158,7 @@ def test_errors_in_the_callback_are_counted_not_raised(caplog):
 
 def test_ring_overrun_in_a_live_stream_is_visible_in_stats():
     src = SoundDeviceSource(USB_CARD.index, FS, 1, "int16", buffer_seconds=0.5)
-    src._prepare(USB_CARD)
-    src._running = True
+    src.start_external(USB_CARD)
     drive(src, 2.0)
     st = src.stats
     assert st.overruns_frames == src.ring.write_index - src.ring.capacity

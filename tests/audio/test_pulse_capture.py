@@ -140,6 +140,7 @@ def test_missing_device_and_bad_settings_are_clear(pulse_server):
         SoundDeviceSource("pulse", FS, channels=64).start()
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("dtype,channels", [("int16", 1), ("int32", 1), ("float32", 1),
                                             ("int16", 2)])
 def test_capture_is_bit_exact_and_well_timed(pulse_server, wav, dtype, channels):
@@ -167,6 +168,7 @@ def test_capture_is_bit_exact_and_well_timed(pulse_server, wav, dtype, channels)
     assert -0.05 < t_signal - (t_launch + lead / FS) < 0.5
 
 
+@pytest.mark.realtime
 def test_stalled_callback_loses_nothing(pulse_server, wav):
     """The server buffers while the callback is stuck: no loss, no false clock step."""
     path, x = wav
@@ -174,11 +176,11 @@ def test_stalled_callback_loses_nothing(pulse_server, wav):
     class Stalling(SoundDeviceSource):
         calls = 0
 
-        def _callback(self, indata, frames, time_info, status):
+        def callback(self, indata, frames, time_info, status):
             Stalling.calls += 1
             if Stalling.calls == 100 + 80:  # about 0.4 s into the played signal
                 time.sleep(1.0)
-            super()._callback(indata, frames, time_info, status)
+            super().callback(indata, frames, time_info, status)
 
     src = Stalling("pulse", FS, 1, "int16", buffer_seconds=30)
     chunks, _ = capture_while_playing(pulse_server, path, src)

@@ -65,6 +65,7 @@ def test_stereo_from_one_channel_and_from_two():
     np.testing.assert_allclose(s, np.stack([np.sin(t), np.cos(t)], axis=1), atol=1e-7)
 
 
+@pytest.mark.realtime
 def test_realtime_is_paced_and_stamped_ideally():
     src = SimulatedSource(sine(440), FS, blocksize=441, realtime=True, duration=0.3)
     t_start = time.monotonic()
@@ -103,6 +104,7 @@ def test_a_broken_function_is_reported():
     assert paced.stats.callback_errors == 1 and paced.finished
 
 
+@pytest.mark.realtime
 def test_read_timeout_returns_none_while_running():
     src = SimulatedSource(sine(), FS, blocksize=FS // 2, realtime=True)
     with src:

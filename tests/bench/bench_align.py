@@ -1,7 +1,7 @@
 """Force and audio on one host clock (the alignment test's measurement, as a figure)."""
 from __future__ import annotations
 
-from tests.fil.alignment import measure
+from tests.firmware.in_loop.alignment import measure
 
 
 def run() -> dict[str, float]:

@@ -24,6 +24,7 @@ def device(tmp_path):
 
 # --- Fingertip ----------------------------------------------------------------------------
 
+@pytest.mark.realtime
 def test_read_on_a_never_opened_device_raises_at_once():
     ft = Fingertip("/dev/nothing-here")
     t0 = time.monotonic()
@@ -54,6 +55,7 @@ def test_read_after_close_hands_out_what_came_then_raises(device):
     ft.close()
 
 
+@pytest.mark.realtime
 def test_close_from_another_thread_wakes_a_waiting_reader(device):
     import threading
 

@@ -55,6 +55,7 @@ def test_other_major_version_is_refused(tmp_path):
             Fingertip(str(dev.link)).open()
 
 
+@pytest.mark.realtime
 def test_a_late_answer_to_an_earlier_attempt_completes_the_command(tmp_path):
     """A device that answers every command 0.7 s late (a process starved by CPU load, as the
     pty device in the recorder tests once was: "no answer to Start within 0.50 s"). The

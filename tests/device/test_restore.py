@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from fingertip import Fingertip
 from fingertip.protocol import Start, encode
 from fingertip.sim import VirtualFirmware
@@ -58,6 +60,7 @@ def test_the_same_device_comes_back_with_its_frames(tmp_path):
         assert ft.stats.foreign_devices == 0
 
 
+@pytest.mark.realtime
 def test_reconnect_after_unplug_restores_the_setup(device):
     with Fingertip(str(device.link)) as ft:
         ft.set_rate(80, 2)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.host.test_import_layers import PACKAGE, imports_of
+from tests.test_import_layers import PACKAGE, imports_of
 
 MODELS = PACKAGE / "models"
 FORBIDDEN = {"nets": {"force", "vibration"}, "force": {"vibration"}}
@@ -13,11 +13,11 @@ FORBIDDEN = {"nets": {"force", "vibration"}, "force": {"vibration"}}
 
 @pytest.mark.parametrize("room", sorted(FORBIDDEN))
 def test_a_room_imports_only_what_it_may(room):
-    hits = [f"{p.relative_to(PACKAGE.parent)}:{line} imports {'.'.join(target)}"
+    hits = [f"{p.relative_to(PACKAGE.parent)}:{imp.line} imports {'.'.join(imp.target)}"
             for p in sorted((MODELS / room).rglob("*.py"))
-            for line, target in imports_of(p, PACKAGE)
-            if target[1:2] == ["models"] and target[2:3]
-            and target[2] in FORBIDDEN[room]]
+            for imp in imports_of(p, PACKAGE)
+            if imp.target[1:2] == ["models"] and imp.target[2:3]
+            and imp.target[2] in FORBIDDEN[room]]
     assert not hits, "\n".join(hits)
 
 

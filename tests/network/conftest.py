@@ -18,7 +18,15 @@ def localhost_only(monkeypatch):
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
     monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(17 + os.getpid() % 200))
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(domain_id()))
+
+
+def domain_id() -> int:
+    """A DDS domain per test process: parallel workers (pytest-xdist's gw0 to gw3) get
+    different ones for sure, separate runs on one machine most likely (by process id). Even
+    numbers: a test may use its domain + 1 as one where nobody listens."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw")
+    return 18 + (os.getpid() % 25) * 8 + 2 * (int(worker) % 4)
 
 
 def env() -> dict[str, str]:

@@ -12,7 +12,7 @@ import soundfile as sf
 from fingertip.record.reader import Recording
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
-from tests.fil.test_hand_chain import by_finger
+from tests.firmware.in_loop.test_hand_chain import by_finger
 
 from .conftest import start, wait_line
 

@@ -12,12 +12,17 @@ from fingertip.record import schemas as S
 from .conftest import start, wait_line
 from .test_dds_stream import FORCE_MODEL, by_topic
 
+# LSL finds streams by name anywhere on the machine and has no domains: every LSL test lives
+# in this module, which make test hands to one pytest-xdist worker (--dist loadscope), so one
+# test's subscriber never meets another's publisher.
+
 
 def decoded(path, kind):
     return [S.DECODERS[S.TOPIC_KINDS[kind]](d) for _, d in by_topic(path)[S.topic("index",
                                                                                      kind)]]
 
 
+@pytest.mark.realtime
 @pytest.mark.slow
 def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
     pytest.importorskip("pylsl")

@@ -61,6 +61,7 @@ def record_then_kill(port, path, seconds: float, *extra: str) -> tuple[float, fl
     return t_started, t_kill
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("seconds", [2.0, 2.45])
 def test_sigkill_loses_at_most_the_unflushed_chunk(device, tmp_path, seconds):
     path = tmp_path / "killed.mcap"

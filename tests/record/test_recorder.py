@@ -93,6 +93,7 @@ def test_timebase_maps_stamps_back_to_monotonic(session):
     assert rec.start_unix_ns <= raws[0].stamp_ns
 
 
+@pytest.mark.realtime
 def test_readable_while_recording_up_to_the_last_flush(device, tmp_path):
     """What a crash would leave: the file as it is on disk during the recording."""
     from fingertip import Fingertip
@@ -113,11 +114,6 @@ def test_readable_while_recording_up_to_the_last_flush(device, tmp_path):
         assert not Recording(path).complete
         ft.stop()
     assert Recording(path).complete
-
-
-
-
-
 
 
 def test_two_fingertips_in_one_file(device, tmp_path):

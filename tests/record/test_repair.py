@@ -45,6 +45,7 @@ def rosbags_count(path: Path) -> dict[str, int]:
     return out
 
 
+@pytest.mark.realtime
 def test_random_sigkills_then_repair(device, tmp_path, session):
     """KILLS recorder processes (frames, forces from an ONNX-free callable, audio from a
     file) each killed 0.5-3 s after it started streaming, at random."""

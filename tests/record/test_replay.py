@@ -74,6 +74,7 @@ def test_same_code_live_and_replayed(device, tmp_path):
         [(f.seq, f.counts, f.device_time_us) for f in live]
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("speed", [1.0, 4.0])
 def test_paced_playback_takes_the_recorded_time(session, speed):
     live = session.frames
@@ -87,6 +88,7 @@ def test_paced_playback_takes_the_recorded_time(session, speed):
     assert span / speed - 0.05 < took < span / speed + 0.5
 
 
+@pytest.mark.realtime
 def test_frames_arrive_when_due(session):
     arrivals: list[tuple[float, float]] = []
     with Replay(session.path, speed=1.0) as rp:
@@ -156,6 +158,7 @@ def test_callbacks_only_never_block(session):
     assert len(n) == len(session.frames) and rp.stats.overruns > 0
 
 
+@pytest.mark.realtime
 def test_close_stops_a_paced_replay_at_once(session):
     rp = Replay(session.path, speed=0.01).open()
     rp.start()

@@ -29,6 +29,7 @@ def test_sigterm_sets_the_event_inside_and_restores_the_handler_after():
         signal.signal(signal.SIGTERM, mine)
 
 
+@pytest.mark.realtime
 def test_run_until_stops_on_sigterm_and_on_a_failed_recorder():
     rec = SimpleNamespace(failed=False)
     timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGTERM))

@@ -39,6 +39,7 @@ def test_unwritable_places_are_clear_errors(tmp_path):
     assert Recording(existing).complete
 
 
+@pytest.mark.realtime
 def test_dev_full_fails_at_start():
     t0 = time.monotonic()
     with pytest.raises(RecorderError, match="No space left on device.*full"):

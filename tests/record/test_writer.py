@@ -57,6 +57,7 @@ def test_a_full_queue_drops_and_counts(tmp_path, monkeypatch):
     assert st.queue_high_water >= 9
 
 
+@pytest.mark.realtime
 def test_disk_full_during_recording_stops_cleanly(tmp_path, monkeypatch):
     """ENOSPC after some chunks: the error is reported, producers never block, the chunks
     already written stay readable."""

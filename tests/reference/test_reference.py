@@ -59,6 +59,7 @@ def test_smooth_arrivals_removes_jitter():
     assert np.max(np.abs(est - (true + 0.004))) < 2e-4
 
 
+@pytest.mark.realtime
 def test_client_and_simulator_over_loopback():
     t0 = time.monotonic()
 

@@ -5,6 +5,5 @@ import pytest
 
 
 @pytest.fixture(autouse=True)
-def _cache(tmp_path_factory, monkeypatch):
-    monkeypatch.setenv("FINGERTIP_TASKS_CACHE",
-                       str(tmp_path_factory.getbasetemp() / "tasks-models"))
+def _cache(tasks_cache):
+    return tasks_cache

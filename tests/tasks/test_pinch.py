@@ -14,6 +14,7 @@ TRIALS = 25
 CASES = {"tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}
 
 
+@pytest.mark.realtime
 @pytest.mark.parametrize("name", list(CASES))
 def test_pinch_trials_succeed_without_breaking(name):
     spec, firmness, step = CASES[name]

@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -82,7 +83,8 @@ class SoundDeviceSource(RingSource):
         self.latency = 0.0
         """Input latency PortAudio reports for the open stream (seconds)."""
         self._stream: Any = None
-        self._now = time.monotonic  # the host clock (tests substitute their own)
+        self.clock: Callable[[], float] = time.monotonic
+        """The host clock each block is stamped against, read in :meth:`callback`."""
         self._stopping = False
         self._reported: dict[str, int] = {}
         self._told_source = ""
@@ -127,7 +129,7 @@ class SoundDeviceSource(RingSource):
             stream = sd.InputStream(device=dev.index, samplerate=self.sample_rate,
                                     channels=self.channels, dtype=dtype,
                                     blocksize=self.blocksize, latency=self.latency_setting,
-                                    callback=self._callback,
+                                    callback=self.callback,
                                     finished_callback=self._on_finished)
         except sd.PortAudioError as e:
             raise AudioBackendError(f"cannot open {dev.describe()}: {e}") from e
@@ -143,6 +145,14 @@ class SoundDeviceSource(RingSource):
             raise AudioBackendError(f"cannot start {dev.describe()}: {e}") from e
         log.info("capturing from %s at %g Hz, %d channel(s), %s, input latency %.1f ms",
                  dev.describe(), self.sample_rate, self.channels, dtype, self.latency * 1e3)
+        return self
+
+    def start_external(self, dev: InputDevice) -> SoundDeviceSource:
+        """Take blocks from a stream the caller runs on ``dev`` (its own PortAudio stream, or
+        a test's hand-made blocks): pass each callback's arguments on to :meth:`callback`.
+        :meth:`start` opens a stream of its own instead."""
+        self._prepare(dev)
+        self._running = True
         return self
 
     def _prepare(self, dev: InputDevice) -> None:
@@ -182,8 +192,9 @@ class SoundDeviceSource(RingSource):
 
     # --- the audio callback (PortAudio's thread) ------------------------------------------
 
-    def _callback(self, indata: np.ndarray, frames: int, time_info: Any, status: Any) -> None:
-        now = self._now()
+    def callback(self, indata: np.ndarray, frames: int, time_info: Any, status: Any) -> None:
+        """PortAudio's input callback: copy the block into the ring buffer and stamp it."""
+        now = self.clock()
         st = self._st
         try:
             if status:

@@ -27,6 +27,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(f"recording:   {r.recording} ({st['recording_messages']} messages, dropped "
           f"{st['recording_dropped']}); try `fingertip replay {r.recording}`")
     print(f"summary:     {r.png}")
+    print(f"force model: {r.calibration}")
+    print(f"took:        {r.seconds:.0f} s")
     return 0
 
 

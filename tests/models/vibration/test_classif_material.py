@@ -64,6 +64,7 @@ def trained(data, tmp_path_factory):
     return train_material(data / "44k", tmp_path_factory.mktemp("model44"), folds=4)
 
 
+@pytest.mark.realtime
 def test_beats_chance_and_confuses_copper_tape_with_wax_paper(trained):
     ev = trained.evaluation
     w = ev.windows

@@ -66,6 +66,7 @@ def test_cnn_and_mlp_classify_shakes_by_majority_vote(trained):
         assert (trained.out / f"shake_{name}.onnx").is_file()
 
 
+@pytest.mark.realtime
 def test_costs_are_measured_side_by_side(trained):
     c, m = trained.results["cnn"].cost, trained.results["mlp"].cost
     assert c["parameters"] > 5 * m["parameters"] and c["multiply_adds"] > 100 * m[

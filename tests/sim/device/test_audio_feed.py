@@ -89,6 +89,7 @@ def test_resampled_trace_matches_by_cross_correlation(pulse_server, slide):  # n
     assert peak > 0.99, f"cross-correlation peak {peak:.7f}"  # seen: 0.9999976
 
 
+@pytest.mark.realtime
 def test_stop_kills_the_player_by_pid(pulse_server):  # noqa: F811
     trace = simulate(Idle(duration=5.0, signals=("vibration",)), seed=1).audio
     feed = AudioFeed(trace, sink=pulse_server.sink).start()

@@ -34,6 +34,7 @@ def test_the_bridge_runs_on_the_memory_stream():
     assert link.firmware.offsets[1] == -50_000
 
 
+@pytest.mark.realtime
 def test_stream_contract():
     link = MemoryLink(VirtualFirmware(4))
     s = link.open("vf0")

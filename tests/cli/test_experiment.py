@@ -8,6 +8,8 @@ import pytest
 
 from fingertip.cli import main
 
+pytestmark = pytest.mark.usefixtures("tasks_cache")
+
 
 def test_pinch_prints_the_table(capsys):
     assert main(["experiment", "pinch", "--trials", "2", "--seed", "3", "--object", "chip",

@@ -236,6 +236,7 @@ def test_reset_mid_stream_resynchronises_and_is_counted(make_sim):
         assert st.crc_errors == 0 and st.reconnects == 0
 
 
+@pytest.mark.realtime
 def test_reconnects_within_1s_when_the_harness_restarts(make_sim, tmp_path):
     """The port vanishes (harness killed) and comes back under the same name (a new harness
     on the same link): the bridge reconnects by itself, restores rate, gain and offsets."""

@@ -3,9 +3,10 @@ from __future__ import annotations
 
 import pytest
 
-from tests.fil.alignment import measure
+from tests.firmware.in_loop.alignment import measure
 
 
+@pytest.mark.realtime
 @pytest.mark.slow
 @pytest.mark.usefixtures("fil_builds")
 @pytest.mark.parametrize("device_ppm, audio_ppm", [(100.0, -100.0), (-100.0, 100.0)])
