@@ -8,6 +8,7 @@ import sys
 import time
 
 from ..device import FingertipError
+from ..device.health import link_text
 from .frame_text import frame_json, frame_line
 from ..hand_args import HandSpec
 
@@ -59,8 +60,8 @@ def stream_hand(args: argparse.Namespace, spec: HandSpec) -> int:
                 pass
         for dev in hand.devices:
             st = dev.stats
-            print(f"{dev.port}: lost {st.frames_lost}, CRC errors {st.crc_errors}, COBS "
-                  f"errors {st.cobs_errors}, reconnects {st.reconnects}", file=sys.stderr)
+            print(f"{dev.port}: {link_text(st)}, COBS errors {st.cobs_errors}",
+                  file=sys.stderr)
         print(f"{n} finger frames ({', '.join(hand.fingers)}); hand queue overruns "
               f"{hand.overruns}", file=sys.stderr)
     finally:

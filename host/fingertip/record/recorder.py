@@ -25,7 +25,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, is_dataclass, replace
 from pathlib import Path
 from struct import error as struct_error
 from typing import Any
@@ -363,20 +363,22 @@ class Recorder:
 
     # --- sources --------------------------------------------------------------------------
 
-    def add_device(self, name: str, *, info: Any = None, force_model: ForceModel | None = None
-                   ) -> None:
+    def add_device(self, name: str, *, info: Any = None, force_model: ForceModel | None = None,
+                   device: Any = None) -> None:
         """Declare a fingertip ``name`` (its topics are ``/fingertip/<name>/...``).
 
         ``info``: what the device reports (a protocol ``Info``, or any JSON-able dict),
         written once on ``/fingertip/<name>/info``. ``force_model``: counts -> forces, run
         on the writer thread for every frame and written on ``/fingertip/<name>/wrench``.
+        ``device``: the :class:`Fingertip` whose link counters (``stats``) the file's summary
+        keeps at the end (:meth:`attach` gives it).
         """
         S.check_name(name)
         if self._state == "closed":
             raise RecorderError(f"cannot add {name!r}: the recorder of {self.path} is closed")
         if name in self._devices:
             raise ValueError(f"a fingertip named {name!r} is already being recorded")
-        self._devices[name] = _Device(name, force_model)
+        self._devices[name] = _Device(name, force_model, device)
         if info is not None:
             self.write_info(name, info)
 
@@ -773,6 +775,9 @@ class Recorder:
             "stop_unix_ns": str(self.timebase.to_ns(self.stop_monotonic or time.monotonic())),
             "written": json.dumps(st.written), "dropped": json.dumps(st.dropped),
             "encode_errors": str(st.encode_errors),
+            "devices": json.dumps({n: asdict(d.fingertip.stats)
+                                   for n, d in self._devices.items()
+                                   if is_dataclass(getattr(d.fingertip, "stats", None))}),
         })
         self._mcap.finish()
         self._commit()
