@@ -100,3 +100,39 @@ def test_tare_service_and_late_info_over_zenoh():
         _, err = pub.communicate(timeout=30)
     m = re.search(r"/fingertip/index/tare: (\d+) requests, (\d+) answered, (\d+) refused", err)
     assert m and m.groups() == ("3", "1", "2"), err[-1500:]
+
+
+def test_a_burst_of_200_tare_requests_over_zenoh_is_answered_or_counted():
+    """200 queries at once: each gets its reply (one tare, the rest busy), by its own
+    sequence number, and the publisher's count agrees."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    pub = start("publish", "--virtual", "1", "--name", "index", "--transport", "zenoh",
+                "--zenoh-listen", endpoint, "--duration", "60")
+    node = None
+    try:
+        wait_line(pub, "publishing")
+        node = Z.ZenohNode(connect=[endpoint])
+        time.sleep(1.0)
+        ke = Z.key_expr(node.domain, SERVICE, TRIGGER)
+        gid = bytes(range(16))
+        pending = [node.session.get(ke, payload=b"\x00\x01\x00\x00\x00", timeout=20,
+                                    attachment=Z.attachment(k, time.time_ns(), gid))
+                   for k in range(1, 201)]
+        answers = {}
+        for h in pending:
+            for r in h:
+                assert r.ok is not None, r.err
+                seq = Z.parse_attachment(r.ok.attachment.to_bytes())[0]
+                answers[seq] = response(r.ok.payload.to_bytes())
+    finally:
+        if node is not None:
+            node.close()
+        pub.send_signal(signal.SIGINT)
+        _, err = pub.communicate(timeout=30)
+    assert sorted(answers) == list(range(1, 201))
+    oks = [t for ok, t in answers.values() if ok]
+    assert len(oks) >= 1 and all(t.startswith("tare offsets: ") for t in oks)
+    assert all(t.startswith("busy") for ok, t in answers.values() if not ok)
+    m = re.search(r"/fingertip/index/tare: (\d+) requests, (\d+) answered, (\d+) refused"
+                  r"(?: \{.*\})?, (\d+) dropped", err)
+    assert m and int(m[1]) == 200 and int(m[2]) + int(m[3]) == 200 and m[4] == "0", err[-1500:]

@@ -223,6 +223,5 @@ def summary_line(feed: Feed, transport: Any) -> str:
     if errs:
         line += f"; errors {errs}"
     for service, st in getattr(transport, "services", {}).items():
-        line += (f"; {service}: {st.requests} requests, {st.answered} answered, "
-                 f"{st.refused} refused {st.reasons or ''}")
+        line += f"; {service}: {st.text()}"
     return line
