@@ -343,6 +343,7 @@ class DdsTransport:
         self._writers: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
         self._clock: Callable[[bytes], None] | None = None
+        self._diagnostics: Callable[[bytes], None] | None = None
 
     def add_fingertip(self, name: str, info: dict | None = None) -> None:
         """Writers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
@@ -385,6 +386,17 @@ class DdsTransport:
         self.services[service] = self.node.trigger_service(service, handler)
         self.node.announce()
         return self.services[service]
+
+    def publish_diagnostics(self, data: bytes) -> None:
+        """A ``diagnostic_msgs/msg/DiagnosticArray`` (CDR) on ``/diagnostics``, with the QoS
+        of diagnostic_updater's publisher (reliable, volatile, keep last 1)."""
+        from .diagnostics import DIAGNOSTIC_ARRAY, TOPIC
+
+        if self._diagnostics is None:
+            self._diagnostics = self.node.writer(ros_topic(TOPIC), DIAGNOSTIC_ARRAY, RELIABLE,
+                                                 depth=1)
+            self.node.announce()
+        self._diagnostics(data)
 
     def close(self) -> None:
         self.node.close()
