@@ -16,6 +16,8 @@ from fingertip.device.outage import (
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.pty_device import PtyDevice
 
+from .test_fingertip_pty import wait_for
+
 P = 0.0125  # 80 Hz
 P_US = 12_500
 
@@ -162,15 +164,6 @@ def test_a_nonsense_period_is_refused(period):
 
 
 # --- a Fingertip whose device goes away and comes back ------------------------------------
-
-def wait_for(pred, timeout=3.0):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return False
-
 
 def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: bool):
     """(last frame before, first frame after) an unplug of ``away_s`` seconds."""

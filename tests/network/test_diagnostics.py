@@ -3,7 +3,6 @@ an independent decoder, and hashed as rosbags hashes its own copy), and a publis
 another process over DDS and Zenoh whose device loses a chip, goes away and comes back."""
 from __future__ import annotations
 
-import os
 import queue
 import signal
 import subprocess
@@ -20,7 +19,7 @@ from fingertip.network.diagnostics import (
 )
 from fingertip.network.ros_types import type_hash
 
-from .conftest import env, start, wait_line
+from .conftest import env, start
 
 ROS2 = get_typestore(Stores.ROS2_JAZZY)
 
@@ -208,28 +207,16 @@ def test_zenoh_diagnostics_as_rmw_zenoh_keys_them():
     pytest.importorskip("zenoh")
     from fingertip.network import zenoh as Z
 
-    from .test_zenoh_stream import free_port
+    from .test_zenoh_service import zenoh_publisher
 
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    pub = start("publish", "--virtual", "1", "--name", "index", "--transport", "zenoh",
-                "--zenoh-listen", endpoint, "--duration", "30")
-    node = None
-    try:
-        wait_line(pub, "publishing")
-        node = Z.ZenohNode(connect=[endpoint])
+    with zenoh_publisher({}) as node:
         q: queue.Queue = queue.Queue()
-        ke = Z.key_expr(int(os.environ.get("ROS_DOMAIN_ID", "0")), "/diagnostics",
-                        DIAGNOSTIC_ARRAY)
-        assert ke.endswith("/diagnostics/diagnostic_msgs::msg::dds_::DiagnosticArray_/"
-                           + ROS2.hash_rihs01(DIAGNOSTIC_ARRAY))
+        ke = Z.key_expr(node.domain, "/diagnostics", DIAGNOSTIC_ARRAY)
+        assert ke == (f"{node.domain}/diagnostics/diagnostic_msgs::msg::dds_::"
+                      f"DiagnosticArray_/{ROS2.hash_rihs01(DIAGNOSTIC_ARRAY)}")
         sub = node.session.declare_subscriber(ke, lambda s: q.put(s.payload.to_bytes()))
         got = collect(q, lambda g: len(g) >= 3)
         sub.undeclare()
-    finally:
-        if node is not None:
-            node.close()
-        pub.send_signal(signal.SIGINT)
-        pub.communicate(timeout=30)
     assert len(got) >= 3
     s = got[-1][1][0]
     assert (s.level, s.name, s.message) == (OK, "fingertip: index", "streaming")
