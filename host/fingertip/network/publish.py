@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..device import FingertipError
+from ..device.health import GoneReporter, gone_text, link_text
 from ..models.classify import to_float
 from ..record.recorder import device_info
 from ..record.schemas import AUDIO_ENCODINGS
@@ -100,12 +101,15 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
     reconnects = {n: getattr(src.stats, "reconnects", 0)
                   for src, n in zip(sources, names, strict=True)}
     health = Diagnostics(feed, transport, sources, names)
+    gone = GoneReporter()
     with Stopper(s.duration) as stopper:
         while stopper.wait():
             if s.replay and sources[0].ended:
                 break
             health.tick(time.monotonic())
             for src, name in zip(sources, names, strict=True):
+                dev = getattr(src, "device", src)  # a hand's finger: its device
+                gone.check(name, getattr(dev, "gone_s", None), getattr(dev, "port", ""))
                 r = getattr(src.stats, "reconnects", 0)
                 if r != reconnects[name]:
                     reconnects[name] = r
@@ -122,6 +126,11 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
     feed.close()
     time.sleep(s.linger)  # reliable messages still in flight reach their readers
     say(summary_line(feed, transport))
+    for src, name in zip(sources, names, strict=True):
+        if not s.replay and hasattr(src, "stats"):  # a device's link (a replay has none)
+            dev = getattr(src, "device", src)
+            say(f"{name}: {link_text(src.stats)}"
+                + gone_text("the device", getattr(dev, "gone_s", None)))
 
 
 class Diagnostics:
