@@ -10,8 +10,9 @@ one device process (in turn) is killed with SIGKILL and started again after ``OU
 
 Figures: ``soak_frames_lost`` (frames missing while connected: sequence gaps, queue
 overruns, and frames the recording dropped; the outages are counted apart in
-``soak_outage_frames``), ``soak_reconnect_max_s`` (from a restarted device's pty being ready
-to its first frame at the host), ``soak_rss_growth_pct`` (resident memory at the end against
+``soak_outage_frames``, the bridge's own count, and ``soak_device_resets``),
+``soak_reconnect_max_s`` (from a restarted device's pty being ready to its first frame at
+the host), ``soak_rss_growth_pct`` (resident memory at the end against
 after the warm-up), ``soak_file_ok`` (the recording is complete and every message the
 recorder wrote reads back through the ``mcap`` package's indexed reader) and
 ``soak_minutes``. ``make soak`` (SOAK_MINUTES=30) or ``python tests/bench/bench_soak.py
@@ -44,9 +45,13 @@ DESCRIPTION = {
     "soak_minutes": ("minutes the soak ran", None),
     "soak_frames_lost": ("frames lost while connected (4 fingers at 80 Hz; outages apart)",
                          ("<=", 0)),
-    "soak_outage_frames": ("frames not produced while a killed device was away", None),
+    "soak_outage_frames": ("frames missing across the outages of killed devices (the "
+                           "bridge's outage_frames)", None),
+    "soak_outage_frames_seen": ("the same, from the callbacks' arrival times (a check)", None),
+    "soak_device_resets": ("device restarts the bridge counted (one per kill)", None),
     "soak_link_seq_lost": ("device messages of any kind missing by sequence number while "
-                           "connected (the bridge's frames_lost)", None),
+                           "connected (the bridge's frames_lost less its outage_frames)",
+                           None),
     "soak_kills": ("device processes killed with SIGKILL and restarted", None),
     "soak_reconnect_max_s": ("slowest reconnect: restarted pty ready -> first frame", ("<=", 1)),
     "soak_rss_growth_pct": ("resident memory growth, end against after the warm-up, %",
@@ -314,8 +319,8 @@ def soak(minutes: float, workdir: Path) -> dict[str, float]:
     file_ok = int(r.complete and read == written and not rs.dropped_total)
     raw_frames = sum(v for t, v in read.items() if t.endswith("/raw"))
     link = {k: sum(getattr(s, k) for s in stats.values())
-            for k in ("frames_lost", "seq_gaps", "crc_errors", "cobs_errors", "overruns",
-                      "reconnects", "device_resets")}
+            for k in ("frames_lost", "outage_frames", "seq_gaps", "crc_errors", "cobs_errors",
+                      "overruns", "reconnects", "device_resets")}
     print(f"soak: {minutes:g} min, {raw_frames} frames recorded, {len(kills)} kills, "
           f"events {events}, reconnects {[round(x, 3) for x in reconnect_s]}, RSS "
           f"{rss0} -> {rss1} kB, sample gaps {gaps}, hand overruns {hand.overruns}, "
@@ -324,8 +329,10 @@ def soak(minutes: float, workdir: Path) -> dict[str, float]:
     return {
         "soak_minutes": round(minutes, 2),
         "soak_frames_lost": gaps + hand.overruns + dropped_raw + abs(seen - raw_frames),
-        "soak_link_seq_lost": link["frames_lost"],
-        "soak_outage_frames": outage_frames,
+        "soak_link_seq_lost": link["frames_lost"] - link["outage_frames"],
+        "soak_outage_frames": link["outage_frames"],
+        "soak_outage_frames_seen": outage_frames,
+        "soak_device_resets": link["device_resets"],
         "soak_kills": len(kills),
         "soak_reconnect_max_s": round(max(reconnect_s), 3) if reconnect_s else 0.0,
         "soak_rss_growth_pct": round(100 * (rss1 - rss0) / rss0, 2) if rss0 else float("nan"),

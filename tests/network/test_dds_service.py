@@ -8,7 +8,9 @@ import re
 import signal
 import time
 
-from fingertip.network.dds import RELIABLE, DdsNode, decode_trigger_reply, encode_request, subscribe
+from fingertip.network.dds import (
+    KEEP_ALL, RELIABLE, DdsNode, decode_trigger_reply, encode_request, subscribe,
+)
 from fingertip.network.ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE
 from fingertip.record import schemas as S
 
@@ -129,3 +131,47 @@ def test_publisher_outlives_a_killed_subscriber(tmp_path):
     assert pub.returncode == 0, err
     m = re.search(r"/fingertip/index/raw (\d+)", err)
     assert m and int(m[1]) >= 12 * 80 - 20, err  # it never stopped publishing
+
+
+def test_a_burst_of_200_tare_requests_is_answered_or_counted():
+    """Every request is answered (one tare, the rest busy) or counted as dropped; with ROS's
+    keep-last 10 on the service's side, 16 of 200 reached it and 13 replies came back."""
+    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "8")
+    node = DdsNode()
+    try:
+        replies: queue.Queue = queue.Queue()
+        # The client keeps every reply (a keep-last reader would overwrite its own).
+        node.reader(f"rr{SERVICE}Reply", TRIGGER_RESPONSE, RELIABLE,
+                    lambda d: replies.put(decode_trigger_reply(d)), hashed=False,
+                    depth=KEEP_ALL)
+        send = node.writer(f"rq{SERVICE}Request", TRIGGER_REQUEST, RELIABLE, hashed=False)
+        t_end = time.monotonic() + 20
+        while not send.writer.get_matched_subscriptions() and time.monotonic() < t_end:
+            time.sleep(0.05)
+        time.sleep(0.3)
+        cid = 0x0BADC0DE
+        for k in range(1, 201):
+            send(encode_request((cid, k)))
+        got = {}
+        t_end = time.monotonic() + 15
+        while len(got) < 200 and time.monotonic() < t_end:
+            try:
+                req_id, ok, text = replies.get(timeout=0.5)
+            except queue.Empty:
+                continue
+            got[req_id] = (ok, text)
+    finally:
+        node.close()
+        _, err = pub.communicate(timeout=30)
+    assert pub.returncode == 0, err
+    m = re.search(r"/fingertip/index/tare: (\d+) requests, (\d+) answered, (\d+) refused"
+                  r"(?: \{(.*)\})?, (\d+) dropped", err)
+    assert m, err
+    requests, answered, refused, dropped = int(m[1]), int(m[2]), int(m[3]), int(m[5])
+    assert requests + dropped == 200 and answered + refused == requests
+    assert set(got) <= {(cid, k) for k in range(1, 201)}
+    assert len(got) == requests  # every request that arrived was answered, by its id
+    oks = [text for ok, text in got.values() if ok]
+    busy = [text for ok, text in got.values() if not ok]
+    assert len(oks) >= 1 and all(t.startswith("tare offsets: ") for t in oks)
+    assert all(t.startswith("busy") for t in busy) and len(oks) + len(busy) == len(got)

@@ -215,3 +215,15 @@ def test_paired_audio_needs_a_usb_port(tmp_path):
     assert r.returncode == 2
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "not a USB serial port" in lines[0], r.stderr
+
+
+def test_service_counts_say_what_was_dropped_before_reaching_the_service():
+    from fingertip.network.trigger import ServiceStats
+
+    st = ServiceStats(requests=5, answered=1, refused=4, reasons={"busy": 4})
+    assert st.dropped == 0
+    assert st.text() == "5 requests, 1 answered, 4 refused {'busy': 4}, 0 dropped"
+    st.dropped_by = lambda: 3  # the transport's count (DDS: lost and rejected samples)
+    assert st.text().endswith(", 3 dropped")
+    assert ServiceStats(requests=2, answered=2).text() == ("2 requests, 2 answered, 0 refused, "
+                                                          "0 dropped")

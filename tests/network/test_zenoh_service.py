@@ -4,6 +4,7 @@ rmw_zenoh's attachment), bad requests refused, and `info` for a subscriber that 
 after it was published (rmw_zenoh's transient-local emulation)."""
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 import signal
@@ -45,6 +46,27 @@ def call(node: Z.ZenohNode, payload: bytes, att: bytes | None, timeout: float = 
             None if ok.attachment is None else ok.attachment.to_bytes())
 
 
+@contextlib.contextmanager
+def zenoh_publisher(out: dict, join_after: float = 1.0):
+    """``fingertip publish --virtual 1 --name index`` over Zenoh in another process, and a
+    node that connects to it ``join_after`` seconds after it started publishing; once both
+    are stopped (the publisher by SIGINT), ``out["err"]`` holds the publisher's stderr."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    pub = start("publish", "--virtual", "1", "--name", "index", "--transport", "zenoh",
+                "--zenoh-listen", endpoint, "--duration", "60")
+    node = None
+    try:
+        wait_line(pub, "publishing")
+        time.sleep(join_after)
+        node = Z.ZenohNode(connect=[endpoint])
+        yield node
+    finally:
+        if node is not None:
+            node.close()
+        pub.send_signal(signal.SIGINT)
+        _, out["err"] = pub.communicate(timeout=30)
+
+
 def response(payload: bytes) -> tuple[bool, str]:
     assert payload[:4] == b"\x00\x01\x00\x00"
     n = int.from_bytes(payload[8:12], "little")
@@ -53,14 +75,9 @@ def response(payload: bytes) -> tuple[bool, str]:
 
 @pytest.mark.slow
 def test_tare_service_and_late_info_over_zenoh():
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    pub = start("publish", "--virtual", "1", "--name", "index", "--transport", "zenoh",
-                "--zenoh-listen", endpoint, "--duration", "60")
-    node = None
-    try:
-        wait_line(pub, "publishing")
-        time.sleep(1.5)  # info went out at the start: this subscriber joins late
-        node = Z.ZenohNode(connect=[endpoint])
+    out: dict = {}
+    # info went out at the start: this subscriber joins late
+    with zenoh_publisher(out, join_after=1.5) as node:
         infos: list[bytes] = []
         got = threading.Event()
 
@@ -93,10 +110,32 @@ def test_tare_service_and_late_info_over_zenoh():
         ok, text = response(data)
         assert not ok and "larger than" in text
         assert Z.parse_attachment(att)[0] == 8
-    finally:
-        if node is not None:
-            node.close()
-        pub.send_signal(signal.SIGINT)
-        _, err = pub.communicate(timeout=30)
+    err = out["err"]
     m = re.search(r"/fingertip/index/tare: (\d+) requests, (\d+) answered, (\d+) refused", err)
     assert m and m.groups() == ("3", "1", "2"), err[-1500:]
+
+
+def test_a_burst_of_200_tare_requests_over_zenoh_is_answered_or_counted():
+    """200 queries at once: each gets its reply (one tare, the rest busy), by its own
+    sequence number, and the publisher's count agrees."""
+    out: dict = {}
+    with zenoh_publisher(out) as node:
+        ke = Z.key_expr(node.domain, SERVICE, TRIGGER)
+        gid = bytes(range(16))
+        pending = [node.session.get(ke, payload=b"\x00\x01\x00\x00\x00", timeout=20,
+                                    attachment=Z.attachment(k, time.time_ns(), gid))
+                   for k in range(1, 201)]
+        answers = {}
+        for h in pending:
+            for r in h:
+                assert r.ok is not None, r.err
+                seq = Z.parse_attachment(r.ok.attachment.to_bytes())[0]
+                answers[seq] = response(r.ok.payload.to_bytes())
+    err = out["err"]
+    assert sorted(answers) == list(range(1, 201))
+    oks = [t for ok, t in answers.values() if ok]
+    assert len(oks) >= 1 and all(t.startswith("tare offsets: ") for t in oks)
+    assert all(t.startswith("busy") for ok, t in answers.values() if not ok)
+    m = re.search(r"/fingertip/index/tare: (\d+) requests, (\d+) answered, (\d+) refused"
+                  r"(?: \{.*\})?, (\d+) dropped", err)
+    assert m and int(m[1]) == 200 and int(m[2]) + int(m[3]) == 200 and m[4] == "0", err[-1500:]

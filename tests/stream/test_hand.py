@@ -22,7 +22,8 @@ def test_two_fingers_json_and_counters(tmp_path):
         assert len(rows) == 40 and {r["finger"] for r in rows} == {"index", "thumb"}
         assert all(r["counts"][0] == (1 if r["finger"] == "index" else 2) for r in rows)
         text = res.text().splitlines()
-        assert text[0] == f"{a.link}: lost 0, CRC errors 0, COBS errors 0, reconnects 0"
+        assert text[0] == (f"{a.link}: lost 0, CRC errors 0, reconnects 0, device resets 0, "
+                           "COBS errors 0")
         assert text[-1] == "40 finger frames (index, thumb); hand queue overruns 0"
         lines.clear()
         stream_hand(StreamSettings(count=2), spec, out=lines.append)

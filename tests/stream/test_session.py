@@ -30,7 +30,8 @@ def test_count_frames_as_json_after_a_tare(port):
     seqs = [f["seq"] for f in frames]
     assert seqs == list(range(seqs[0], seqs[0] + 20))
     assert res.frames == 20 and res.frames_lost == 0 and res.crc_errors == 0
-    assert res.text().startswith("20 frames; lost 0, CRC errors 0, COBS errors 0")
+    assert res.text().startswith(
+        "20 frames; lost 0, CRC errors 0, reconnects 0, device resets 0, COBS errors 0")
 
 
 def test_text_lines_or_a_live_line_and_the_settings_reach_the_device(port):

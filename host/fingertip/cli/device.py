@@ -8,9 +8,11 @@ import argparse
 import json
 import logging
 import sys
+from dataclasses import asdict
 from pathlib import Path
 
 from ..device import Fingertip, FingertipError
+from ..device.health import link_text
 from ..flash import FlashError, flash
 from ..hand_args import add_hand_args, hand_spec_from_args
 from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
@@ -112,7 +114,8 @@ def _cmd_info(args: argparse.Namespace) -> int:
     with _open(args) as ft:
         info, stats = ft.info, ft.device_stats()
         if args.json:
-            print(json.dumps({"info": message_to_dict(info), "stats": message_to_dict(stats)}))
+            print(json.dumps({"info": message_to_dict(info), "stats": message_to_dict(stats),
+                              "host": asdict(ft.stats)}))
             return 0
         fw = ".".join(map(str, info.firmware_version))
         print(f"port              {ft.port}")
@@ -127,6 +130,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
         for k, v in message_to_dict(stats).items():
             if k not in ("type", "seq"):
                 print(f"{k:<17} {v}")
+        print(f"host link         {link_text(ft.stats)}")
     return 0
 
 

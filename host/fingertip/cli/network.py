@@ -52,15 +52,22 @@ def _record_from(args: argparse.Namespace) -> int:
                            flush_bytes=args.flush_kb * 1024, compression=args.compression,
                            overwrite=args.force, fsync=args.fsync,
                            connect=getattr(args, "zenoh_connect", None),
-                           listen=getattr(args, "zenoh_listen", None), say=_say)
+                           listen=getattr(args, "zenoh_listen", None),
+                           wait_timeout=args.wait_timeout, say=_say)
     except (ExtraMissing, ValueError, RecorderError, NetworkStartError) as e:
         log.error("%s", e)
         return 2
+    if r.timed_out is not None and not r.written:
+        log.error("%s", r.timed_out)
+        return 1
     print(f"recorded {sum(r.written.values())} messages from {args.from_net} to "
           f"{args.output}: " + ", ".join(f"{k} {v}" for k, v in sorted(r.written.items()))
           + f"; dropped {r.dropped}; undecodable {r.undecodable}", file=sys.stderr)
     if r.error is not None:
         log.error("%s", r.error)
+        return 1
+    if r.timed_out is not None:
+        log.error("%s", r.timed_out)
         return 1
     return 0
 

@@ -74,6 +74,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
         log.error("record --from is part of the `fingertip` command: run `fingertip record "
                   "--from %s ...`", args.from_net)
         return 2
+    if getattr(args, "wait_timeout", None) is not None:
+        log.error("--wait-timeout is for record --from dds|zenoh|lsl (a device that goes "
+                  "away is reported while it is gone)")
+        return 2
     try:
         check_name(args.name)
         onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
@@ -288,6 +292,10 @@ def add_parsers(sub) -> None:
     r.add_argument("--fsync", action="store_true",
                    help="also force every flushed chunk onto the disk (against power loss)")
     r.add_argument("--force", action="store_true", help="replace FILE if it exists")
+    r.add_argument("--wait-timeout", type=number(float, 0, lo_open=True), metavar="S",
+                   help="with --from: end (exit 1) once a fingertip has sent nothing for S "
+                        "seconds, from the start or since its last message (default: wait, "
+                        "saying what is awaited every 5 s)")
     r.set_defaults(func=_cmd_record)
 
     p = sub.add_parser("replay", help="play a recording as if it were a live device",

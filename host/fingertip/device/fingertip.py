@@ -18,6 +18,7 @@ from __future__ import annotations
 import itertools
 import logging
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterator
 
@@ -29,6 +30,7 @@ from .commands import DeviceCommands, PendingCommand
 from .errors import CommandTimeout, FingertipError, NotConnected, check_int
 from .frames import Frame, FrameSource
 from .link import PortLink
+from .outage import OutageTracker
 from .reader import SharedReader
 from .restore import SetupRestore, identity
 from .state import BridgeStats, Settings
@@ -86,6 +88,7 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
         self.open_timeout = open_timeout
         self.name = name or port or serial_number or "fingertip"
         self._counters = BridgeStats()
+        self._outages = OutageTracker()
         self.clock = ClockSync()
         self.settings = Settings()
         self._decoder = StreamDecoder("device")
@@ -188,13 +191,13 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
     def stats(self) -> BridgeStats:
         """Counters of everything the host saw and lost (a snapshot)."""
         d = self._decoder.stats
-        c = self._counters
+        c, o = self._counters, self._outages
         return BridgeStats(
             frames_ok=d.frames_ok, bytes_in=d.bytes_in, crc_errors=d.crc_errors,
             cobs_errors=d.cobs_errors, length_errors=d.too_short + d.too_long,
             unknown_type=d.unknown_type, bad_payload=d.bad_payload, seq_gaps=d.seq_gaps,
-            frames_lost=d.frames_lost,
-            overruns=c.overruns, reconnects=c.reconnects, device_resets=c.device_resets,
+            frames_lost=d.frames_lost + o.outage_frames, outage_frames=o.outage_frames,
+            overruns=c.overruns, reconnects=c.reconnects, device_resets=o.device_resets,
             callback_errors=c.callback_errors, command_retries=c.command_retries,
             log_lines=c.log_lines, foreign_devices=c.foreign_devices)
 
@@ -202,6 +205,14 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
     def status(self) -> str:
         """``"connected"``, ``"reconnecting"`` or ``"closed"``."""
         return self._status
+
+    @property
+    def gone_s(self) -> float | None:
+        """Seconds since the last frame while the device is away (lost, not back yet)."""
+        return self._outages.gone_for(time.monotonic())
+
+    def _period_s(self) -> float:
+        return self.settings.decimation / self.settings.rate_sps
 
     @property
     def info(self) -> Info:
@@ -305,6 +316,9 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
         self._deliver(frame)
 
     def _deliver(self, frame: Frame) -> None:
+        if (gap := self._outages.frame(frame)) is not None:
+            log.warning("%s: back after %.2f s: %d frames lost%s", self.name, gap.gone_s,
+                        gap.frames_lost, ", the device restarted" * gap.restarted)
         queue = self._queue
         if queue is not None:
             with self._cond:
@@ -322,7 +336,7 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
     def _on_info(self, msg: Info | ForeignInfo) -> None:
         if isinstance(msg, Info) and msg.is_boot:
             if self._info is not None:
-                self._counters.device_resets += 1
+                self._outages.reset_seen(self._period_s())
                 log.warning("%s: the device reset (cause 0x%02X); restoring its set-up",
                             self.name, msg.reset_cause)
                 self.clock.reset()

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from ..protocol import StreamDecoder
 from ..transport import ByteStream, TransportError, find_port
 from .frames import Frame
+from .outage import OutageTracker
 from .reader import SharedReader, stream_fileno
 from .state import BridgeStats
 from .timesync import ClockSync
@@ -48,6 +49,8 @@ class PortLink:
     _closing: threading.Event
     _restore_needed: threading.Event
     _counters: BridgeStats
+    _outages: OutageTracker
+    _period_s: Callable[[], float]
     _status: str
     _lost_for_good: bool
     _identity: tuple | None
@@ -152,6 +155,7 @@ class PortLink:
         return self._verdict is not None
 
     def _lost(self) -> None:
+        self._outages.link_lost(self._period_s(), time.monotonic())
         self._connected.clear()
         self._status = "reconnecting"
         self._release_stream()

@@ -20,6 +20,10 @@ class BridgeStats:
     bad_payload: int = 0
     seq_gaps: int = 0
     frames_lost: int = 0
+    """Frames missing: by sequence number inside a connection, plus ``outage_frames``."""
+    outage_frames: int = 0
+    """Sample frames missing across outages (link lost and back, device restarted):
+    :mod:`fingertip.device.outage`."""
     overruns: int = 0
     """Frames dropped because user code did not read the queue fast enough (never counted
     with ``queue_size=0``: there is no queue, callbacks get every frame)."""

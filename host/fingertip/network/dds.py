@@ -46,6 +46,11 @@ LATCHED = "latched"
 KIND_PROFILE = {"raw": SENSOR, "wrench": SENSOR, "audio": SENSOR, "events": RELIABLE,
                 "info": LATCHED}
 
+KEEP_ALL = 0
+"""A ``depth`` that keeps every sample (reliable KEEP_ALL history): a service's request
+reader and reply writer, as rmw_cyclonedds made them, so that a burst of requests is
+neither overwritten before it is taken nor its replies before they are acknowledged."""
+
 MAX_REQUEST_BYTES = 64
 """A std_srvs/Trigger request is 21 bytes (header, request id, one placeholder byte):
 anything larger than this is refused without being parsed."""
@@ -160,7 +165,9 @@ class DdsNode:
                  Policy.History.KeepLast(1), Policy.Durability.TransientLocal]
         else:
             raise ValueError(f"unknown QoS profile {profile!r}")
-        if depth is not None:  # a reader that must not lose what it is slow to take
+        if depth == KEEP_ALL:  # nothing overwritten: a full reader pushes back instead
+            p[1] = Policy.History.KeepAll
+        elif depth is not None:  # a reader that must not lose what it is slow to take
             p[1] = Policy.History.KeepLast(depth)
         if type_name is not None:
             p.append(Policy.Userdata(user_data(type_name)))
@@ -178,13 +185,13 @@ class DdsNode:
     # --- publishing ---------------------------------------------------------------------------
 
     def writer(self, dds_name: str, type_name: str, profile: str,
-               hashed: bool = True) -> Callable[[bytes], None]:
+               hashed: bool = True, depth: int | None = None) -> Callable[[bytes], None]:
         """A function that publishes ready CDR bytes on DDS topic ``dds_name``."""
         from cyclonedds._clayer import ddspy_write
         from cyclonedds.pub import DataWriter
 
         w = DataWriter(self.participant, self._topic(dds_name, type_name),
-                       self.qos(profile, type_name if hashed else None))
+                       self.qos(profile, type_name if hashed else None, depth))
         self._writers.append(w)
         ref = w._ref
 
@@ -199,8 +206,9 @@ class DdsNode:
 
     def reader(self, dds_name: str, type_name: str, profile: str,
                on_data: Callable[[bytes], None], hashed: bool = True,
-               depth: int | None = None) -> None:
-        """Call ``on_data(cdr_bytes)`` (on the node's reader thread) for every sample."""
+               depth: int | None = None):
+        """Call ``on_data(cdr_bytes)`` (on the node's reader thread) for every sample;
+        returns the DDS reader (its lost and rejected samples: :func:`samples_dropped`)."""
         from cyclonedds.core import ReadCondition
         from cyclonedds.sub import DataReader
 
@@ -216,6 +224,7 @@ class DdsNode:
             self._thread = threading.Thread(target=self._read_loop, daemon=True,
                                             name="dds-readers")
             self._thread.start()
+        return r
 
     def _read_loop(self) -> None:
         from cyclonedds._clayer import ddspy_take
@@ -278,9 +287,16 @@ class DdsNode:
 
         ``handler()`` runs on a worker thread (a tare takes a while) and returns
         ``(success, message)``. Malformed or oversized requests are refused and counted;
-        no request can stop the node.
+        no request can stop the node. Every request that reaches the reader is answered
+        (done, busy or refused); requests DDS lost or rejected on the way (a client's
+        keep-last writer overwriting what it had not delivered) are counted as dropped.
         """
-        reply = self.writer(f"rr{service}Reply", TRIGGER_RESPONSE, RELIABLE, hashed=False)
+        # KEEP_ALL both ways: with ROS's default keep-last 10, a burst of requests was
+        # overwritten in the reader's history before the reader thread took it, and the
+        # replies in the writer's before the client acknowledged them (200 requests: 16
+        # reached the service, 13 replies reached the client, nothing counted the rest).
+        reply = self.writer(f"rr{service}Reply", TRIGGER_RESPONSE, RELIABLE, hashed=False,
+                            depth=KEEP_ALL)
         server = TriggerServer(service, handler, stats)
 
         def on_request(data: bytes) -> None:
@@ -294,7 +310,9 @@ class DdsNode:
                 return
             server.request(answer)
 
-        self.reader(f"rq{service}Request", TRIGGER_REQUEST, RELIABLE, on_request, hashed=False)
+        r = self.reader(f"rq{service}Request", TRIGGER_REQUEST, RELIABLE, on_request,
+                        hashed=False, depth=KEEP_ALL)
+        server.stats.dropped_by = lambda: samples_dropped(r)
         return server.stats
 
     def close(self) -> None:
@@ -325,6 +343,7 @@ class DdsTransport:
         self._writers: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
         self._clock: Callable[[bytes], None] | None = None
+        self._diagnostics: Callable[[bytes], None] | None = None
 
     def add_fingertip(self, name: str, info: dict | None = None) -> None:
         """Writers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
@@ -368,6 +387,17 @@ class DdsTransport:
         self.node.announce()
         return self.services[service]
 
+    def publish_diagnostics(self, data: bytes) -> None:
+        """A ``diagnostic_msgs/msg/DiagnosticArray`` (CDR) on ``/diagnostics``, with the QoS
+        of diagnostic_updater's publisher (reliable, volatile, keep last 1)."""
+        from .diagnostics import DIAGNOSTIC_ARRAY, TOPIC
+
+        if self._diagnostics is None:
+            self._diagnostics = self.node.writer(ros_topic(TOPIC), DIAGNOSTIC_ARRAY, RELIABLE,
+                                                 depth=1)
+            self.node.announce()
+        self._diagnostics(data)
+
     def close(self) -> None:
         self.node.close()
 
@@ -385,6 +415,16 @@ def subscribe(node: DdsNode, names: list[str], on_message: Callable[[str, str, b
                         lambda data, _n=name, _k=kind: on_message(_n, _k, data),
                         depth=1000 if kind != "info" else None)
     node.announce("fingertip_recorder")
+
+
+def samples_dropped(reader) -> int:
+    """Samples a DDS reader never got (lost: the writer no longer had them) or refused
+    (rejected: its resource limits)."""
+    try:
+        return (reader.get_sample_lost_status().total_count
+                + reader.get_sample_rejected_status().total_count)
+    except Exception:  # the participant is gone (closed): nothing more was dropped
+        return 0
 
 
 def check_trigger_request(data: bytes) -> tuple[tuple[int, int] | None, str | None, str]:

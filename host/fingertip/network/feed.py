@@ -62,6 +62,8 @@ class Feed:
             transport.timebase = self.timebase
         self._counts: Counter[tuple[str, str]] = Counter()
         self.errors: Counter[str] = Counter()
+        self.audio_lost: Counter[str] = Counter()
+        """Fingertip -> audio frames its microphone lost (the chunks' ``lost_before``)."""
         self._lock = threading.Lock()
         self._models: dict[str, ForceModel | None] = {}
         self._forces: dict[str, Callable[[Sequence[int]], tuple[float, float, float]]] = {}
@@ -151,6 +153,9 @@ class Feed:
             self._tell_once(f"audio-{name}", "%s: audio of this dtype cannot be published", name)
             return
         encoding, data = payload
+        if chunk.lost_before:
+            with self._lock:
+                self.audio_lost[name] += chunk.lost_before
         self._send(name, "audio", S.AudioMsg(
             self.timebase.to_ns(chunk.host_time), name, chunk.first_index, chunk.frames,
             chunk.channels, float(chunk.sample_rate), float(chunk.host_rate),

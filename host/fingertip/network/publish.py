@@ -18,9 +18,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..device import FingertipError
+from ..device.health import GoneReporter, gone_text, link_text
 from ..models.vibration.classify import to_float
 from ..record.encoding import device_info
 from ..record.schemas import AUDIO_ENCODINGS
+from .diagnostics import PERIOD_S, Health, encode_diagnostic_array
 from .feed import Feed
 from .hand import pump_hand_audio
 from .stopper import Stopper
@@ -98,15 +100,21 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
         + (f" for {s.duration:g} s" if s.duration else " (Ctrl-C to stop)"))
     reconnects = {n: getattr(src.stats, "reconnects", 0)
                   for src, n in zip(sources, names, strict=True)}
+    health = Diagnostics(feed, transport, sources, names)
+    gone = GoneReporter()
     with Stopper(s.duration) as stopper:
         while stopper.wait():
             if s.replay and sources[0].ended:
                 break
+            health.tick(time.monotonic())
             for src, name in zip(sources, names, strict=True):
+                dev = getattr(src, "device", src)  # a hand's finger: its device
+                gone.check(name, getattr(dev, "gone_s", None), getattr(dev, "port", ""))
                 r = getattr(src.stats, "reconnects", 0)
                 if r != reconnects[name]:
                     reconnects[name] = r
                     _event(feed, rec, name, "reconnect", float(r))
+    health.close()
     for src, name in zip(sources, names, strict=True):
         with contextlib.suppress(FingertipError):
             src.stop()
@@ -118,6 +126,44 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
     feed.close()
     time.sleep(s.linger)  # reliable messages still in flight reach their readers
     say(summary_line(feed, transport))
+    for src, name in zip(sources, names, strict=True):
+        if not s.replay and hasattr(src, "stats"):  # a device's link (a replay has none)
+            dev = getattr(src, "device", src)
+            say(f"{name}: {link_text(src.stats)}"
+                + gone_text("the device", getattr(dev, "gone_s", None)))
+
+
+class Diagnostics:
+    """``/diagnostics`` once a :data:`~.diagnostics.PERIOD_S`, one status per fingertip,
+    on transports that carry it (DDS, Zenoh; not LSL)."""
+
+    def __init__(self, feed: Feed, transport: Any, sources: Sequence[Any],
+                 names: Sequence[str]) -> None:
+        self.feed = feed
+        self._publish = getattr(transport, "publish_diagnostics", None)
+        self._healths = [(src, Health(src, name)) for src, name in zip(sources, names,
+                                                                        strict=True)]
+        self._next = 0.0
+        if self._publish is not None:
+            for src, h in self._healths:
+                src.add_callback(h.on_frame)
+
+    def tick(self, now: float) -> None:
+        if self._publish is None or now < self._next:
+            return
+        self._next = now + PERIOD_S
+        statuses = [h.update(now, audio_overruns_frames=self.feed.audio_lost[h.name])
+                    for _, h in self._healths]
+        try:
+            self._publish(encode_diagnostic_array(self.feed.timebase.to_ns(now), statuses))
+        except Exception as e:  # a network hiccup must not end the session
+            log.debug("publishing /diagnostics failed: %s", e)
+
+    def close(self) -> None:
+        if self._publish is not None:
+            for src, h in self._healths:
+                with contextlib.suppress(ValueError):
+                    src.remove_callback(h.on_frame)
 
 
 def _replay_extras(s: PublishSettings, rp: Any, name: str, feed: Feed, transport: Any,
@@ -223,6 +269,5 @@ def summary_line(feed: Feed, transport: Any) -> str:
     if errs:
         line += f"; errors {errs}"
     for service, st in getattr(transport, "services", {}).items():
-        line += (f"; {service}: {st.requests} requests, {st.answered} answered, "
-                 f"{st.refused} refused {st.reasons or ''}")
+        line += f"; {service}: {st.text()}"
     return line

@@ -37,6 +37,10 @@ class NetworkRecorder:
         self.recorder = recorder
         self.names = names
         self.bad = 0
+        # Every key made now: the reader threads only update values, so another thread can
+        # copy the dict meanwhile.
+        self.heard: dict[str, float | None] = dict.fromkeys(names)
+        """Fingertip -> ``time.monotonic()`` of its last message (None before the first)."""
         self._audio_declared: set[str] = set()
         self._lock = threading.Lock()
         if source == "dds":
@@ -58,6 +62,7 @@ class NetworkRecorder:
 
     def on_message(self, name: str, kind: str, data: bytes) -> None:
         """One message ``data`` (CDR) of ``/fingertip/<name>/<kind>``."""
+        self.heard[name] = time.monotonic()
         try:
             msg = S.DECODERS[S.TOPIC_KINDS[kind]](data)  # refuse what does not decode
         except Exception as e:

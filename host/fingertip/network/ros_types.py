@@ -16,6 +16,7 @@ from typing import Any
 
 from ..record import schemas as S
 from . import require
+from .diagnostics import DEFINITIONS as DIAGNOSTIC_DEFS
 
 TRIGGER = "std_srvs/srv/Trigger"
 TRIGGER_REQUEST = "std_srvs/srv/Trigger_Request"
@@ -101,6 +102,7 @@ def definitions() -> dict[str, str]:
             defs[full_name(head[5:].strip())] = body.rstrip("\n")
     defs.update(SERVICE_DEFS)
     defs.update(OTHER_DEFS)
+    defs.update(DIAGNOSTIC_DEFS)
     return defs
 
 

@@ -24,6 +24,20 @@ class ServiceStats:
     """Malformed, oversized or failing requests (answered with success = false when they
     carried a readable request id, dropped otherwise)."""
     reasons: dict[str, int] = field(default_factory=dict)
+    dropped_by: Callable[[], int] | None = field(default=None, repr=False, compare=False)
+    """The transport's count of requests lost before they reached the service (DDS: the
+    request reader's lost and rejected samples)."""
+
+    @property
+    def dropped(self) -> int:
+        """Requests sent to the service that never reached it (counted by the transport)."""
+        return self.dropped_by() if self.dropped_by is not None else 0
+
+    def text(self) -> str:
+        """``N requests, A answered, R refused {reasons}, D dropped``."""
+        reasons = f" {self.reasons}" if self.reasons else ""
+        return (f"{self.requests} requests, {self.answered} answered, {self.refused} refused"
+                f"{reasons}, {self.dropped} dropped")
 
 
 def trigger_response_cdr(success: bool, message: str) -> bytes:
@@ -50,7 +64,9 @@ class TriggerServer:
         st = self.stats
         st.refused += 1
         st.reasons[reason] = st.reasons.get(reason, 0) + 1
-        log.warning("%s: refused a request (%s)", self.service, text)
+        # Busy is an answer, not a fault (a burst of requests gets one each): debug only.
+        log.log(logging.DEBUG if reason == "busy" else logging.WARNING,
+                "%s: refused a request (%s)", self.service, text)
         if answer is not None:
             answer(False, text)
 

@@ -45,6 +45,7 @@ log = logging.getLogger(__name__)
 # 2 volatile; history 1 keep last. Default (omitted): reliable, volatile, keep last 10.
 KIND_QOS = {"raw": "2::,5:,:,:,,", "wrench": "2::,5:,:,:,,", "audio": "2::,5:,:,:,,",
             "events": "::,:,:,:,,", "info": ":1:,1:,:,:,,"}
+DIAGNOSTICS_QOS = "::,1:,:,:,,"  # /diagnostics: reliable, volatile, keep last 1
 SERVICE_QOS = "::,:,:,:,,"  # rmw's services default: reliable, volatile, keep last 10
 TRANSIENT_LOCAL_KINDS = ("info",)
 NODE = "fingertip"
@@ -256,6 +257,7 @@ class ZenohTransport:
         self._encoders = ENCODERS
         self._pubs: dict[tuple[str, str], Callable[[bytes], None]] = {}
         self.services: dict[str, ServiceStats] = {}
+        self._diagnostics: Callable[[bytes], None] | None = None
 
     def add_fingertip(self, name: str, info: dict | None = None) -> None:
         """Publishers for fingertip ``name`` (``info`` goes out on its topic, not here)."""
@@ -272,6 +274,15 @@ class ZenohTransport:
 
     def publish(self, name: str, kind: str, msg) -> None:
         self._pubs[name, kind](self._encoders[kind](msg))
+
+    def publish_diagnostics(self, data: bytes) -> None:
+        """A ``diagnostic_msgs/msg/DiagnosticArray`` (CDR) on ``/diagnostics`` (reliable,
+        volatile, keep last 1, as diagnostic_updater publishes it)."""
+        from .diagnostics import DIAGNOSTIC_ARRAY, TOPIC
+
+        if self._diagnostics is None:
+            self._diagnostics = self.node.publisher(TOPIC, DIAGNOSTIC_ARRAY, DIAGNOSTICS_QOS)
+        self._diagnostics(data)
 
     def wait_subscribers(self, n: int, timeout: float) -> bool:
         """Wait for ``n`` subscription tokens (MS) on every raw topic."""

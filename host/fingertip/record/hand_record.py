@@ -27,20 +27,26 @@ class HandSummary:
     dropped_by_topic: dict[str, int]
     megabytes: float
     frames_lost: int
-    """Frames the devices lost (sequence gaps), summed over the hand's devices."""
+    """Frames the devices lost (sequence gaps and outages), summed over the hand's devices."""
     crc_errors: int
     reconnects: int
     error: str | None = None
+    device_resets: int = 0
+    outage_frames: int = 0
+    gone: dict[str, float] | None = None
+    """Finger -> seconds its device had been away when the session ended."""
 
     def text(self) -> str:
+        from ..device.health import gone_text, link_text
+
         lines = [f"{f}: {c['raw']} frames, {c['wrench']} forces, {c['audio_frames']} audio "
                  f"frames in {c['audio']} chunks, {c['events']} events"
                  for f, c in self.per_finger.items()]
         drops = ", ".join(f"{k}: {v}" for k, v in sorted(self.dropped_by_topic.items()))
         lines.append(f"recorded {self.elapsed_s:.1f} s to {self.output}: dropped {self.dropped}"
                      + (f" ({drops})" if drops else "") + "; "
-                     f"{self.megabytes:.2f} MB; devices: lost {self.frames_lost}, CRC "
-                     f"errors {self.crc_errors}, reconnects {self.reconnects}")
+                     f"{self.megabytes:.2f} MB; devices: {link_text(self)}"
+                     + "".join(gone_text(f, s) for f, s in (self.gone or {}).items()))
         return "\n".join(lines)
 
 
@@ -51,6 +57,7 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
     devices', recorder's and audio errors (and ValueError for a split that names channels
     the device does not have); everything opened is closed whatever happens."""
     from ..device import FingertipError, SharedReader
+    from ..device.health import GoneReporter
 
     # The recorder takes frames by callback: queues nobody reads would only count phantom
     # overruns, and one thread reads every device of the hand.
@@ -66,7 +73,7 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
             dev = hand.device(finger)
             info = {"name": finger, "port": dev.port, "serial_number": dev.serial_number,
                     "channels": list(spec.groups[finger]) if spec.groups else None}
-            rec.add_device(finger, info=info, force_model=force_model)
+            rec.add_device(finger, info=info, force_model=force_model, device=dev)
         hand.add_callback(rec.write_frame)
         for source, names in audio:
             source.start()
@@ -79,7 +86,13 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
             rec.write_event(finger, "start")
         if say is not None:
             say(settings.announce(f"hand ({', '.join(hand.fingers)})"))
-        elapsed = run_until(settings.duration, rec)
+        gone = GoneReporter()
+
+        def tick(_seconds: float) -> None:
+            for finger in hand.fingers:
+                dev = hand.device(finger)
+                gone.check(finger, dev.gone_s, dev.port)
+        elapsed = run_until(settings.duration, rec, tick)
         with contextlib.suppress(FingertipError):
             hand.stop()
         hand.remove_callback(rec.write_frame)
@@ -99,7 +112,11 @@ def record_hand(settings: RecordSettings, spec: HandSpec, audio: list, force_mod
                            frames_lost=sum(st.frames_lost for st in stats),
                            crc_errors=sum(st.crc_errors for st in stats),
                            reconnects=sum(st.reconnects for st in stats),
-                           error=None if rec.error is None else str(rec.error))
+                           error=None if rec.error is None else str(rec.error),
+                           device_resets=sum(st.device_resets for st in stats),
+                           outage_frames=sum(st.outage_frames for st in stats),
+                           gone={f: g for f in hand.fingers
+                                 if (g := hand.device(f).gone_s) is not None})
     finally:
         for source, _ in audio:
             source.stop()

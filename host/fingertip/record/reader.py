@@ -30,7 +30,7 @@ from mcap.records import Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader
 
 from . import schemas as S
-from .writer import METADATA_NAME
+from .writer import METADATA_NAME, SUMMARY_METADATA_NAME
 from .timebase import TimeBase
 
 MAGIC = b"\x89MCAP0\r\n"
@@ -239,6 +239,21 @@ class Recording:
                 return f.read() == MAGIC and os.path.getsize(self.path) > 2 * len(MAGIC)
         except OSError:
             return False
+
+    def link_counters(self) -> dict[str, dict[str, int]]:
+        """Each recorded fingertip's link counters when the recording ended (``frames_lost``,
+        ``outage_frames``, ``device_resets``, ``reconnects``...: docs/protocol.md), from the
+        summary the recorder writes last; empty for a file cut short or without them."""
+        if not self.complete:
+            return {}
+        try:
+            with open(self.path, "rb") as f:
+                for m in SeekingReader(f).iter_metadata():
+                    if m.name == SUMMARY_METADATA_NAME:
+                        return json.loads(m.metadata.get("devices", "{}"))
+        except Exception:  # no summary section, or a damaged one: nothing to report
+            return {}
+        return {}
 
     def names(self) -> list[str]:
         """Fingertip names that have any topic in the file."""

@@ -23,7 +23,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -102,7 +102,7 @@ class Recorder:
             self.path, queue_size=queue_size, flush_interval=self.flush_interval,
             flush_bytes=self.flush_bytes, compression=compression, fsync=fsync,
             overwrite=overwrite, timebase=self.timebase, force_model_of=self._force_model_of,
-            audio_metadata_of=self._audio_metadata_of)
+            audio_metadata_of=self._audio_metadata_of, link_counters=self._link_counters)
         self._pumps: list[threading.Thread] = []
         # Set first by close(): the audio pumps end and record what their sources captured
         # before the writer's closing refuses further writes (closing it first counted those
@@ -207,20 +207,22 @@ class Recorder:
 
     # --- sources --------------------------------------------------------------------------
 
-    def add_device(self, name: str, *, info: Any = None, force_model: ForceModel | None = None
-                   ) -> None:
+    def add_device(self, name: str, *, info: Any = None, force_model: ForceModel | None = None,
+                   device: Any = None) -> None:
         """Declare a fingertip ``name`` (its topics are ``/fingertip/<name>/...``).
 
         ``info``: what the device reports (a protocol ``Info``, or any JSON-able dict),
         written once on ``/fingertip/<name>/info``. ``force_model``: counts -> forces, run
         on the writer thread for every frame and written on ``/fingertip/<name>/wrench``.
+        ``device``: the :class:`Fingertip` whose link counters (``stats``) the file's summary
+        keeps at the end (:meth:`attach` gives it).
         """
         S.check_name(name)
         if self._state == "closed":
             raise RecorderError(f"cannot add {name!r}: the recorder of {self.path} is closed")
         if name in self._devices:
             raise ValueError(f"a fingertip named {name!r} is already being recorded")
-        self._devices[name] = _Device(name, force_model)
+        self._devices[name] = _Device(name, force_model, device)
         if info is not None:
             self.write_info(name, info)
 
@@ -398,6 +400,11 @@ class Recorder:
         return done.wait(timeout)
 
     # --- what the writer thread looks up --------------------------------------------------
+
+    def _link_counters(self) -> dict[str, dict[str, int]]:
+        """Each recorded fingertip's link counters now, for the file's summary."""
+        return {n: asdict(d.fingertip.stats) for n, d in self._devices.items()
+                if is_dataclass(getattr(d.fingertip, "stats", None))}
 
     def _force_model_of(self, name: str) -> ForceModel | None:
         dev = self._devices.get(name)

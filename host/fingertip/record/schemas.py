@@ -165,6 +165,9 @@ class _Writer:
         if pad:
             self.buf += b"\0" * pad
 
+    def u8(self, v: int) -> None:
+        self.buf.append(v)
+
     def u16(self, v: int) -> None:
         self._align(2)
         self.buf += _U16.pack(v)
@@ -202,6 +205,11 @@ class _Writer:
     def u8_seq(self, data: bytes) -> None:
         self.u32(len(data))
         self.buf += data
+
+
+CdrWriter = _Writer
+"""Little-endian CDR with the encapsulation header, for messages built elsewhere (the
+network's ``/diagnostics``): ``header``, ``string``, ``u8``/``u16``/``u32``/``u64``, ``f64``."""
 
 
 class _Reader:

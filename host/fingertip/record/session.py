@@ -137,13 +137,20 @@ class FingertipSummary:
     crc_errors: int
     reconnects: int
     error: str | None = None
+    device_resets: int = 0
+    outage_frames: int = 0
+    """Of ``frames_lost``, those missing across outages (link lost, device restarted)."""
+    gone_s: float | None = None
+    """Seconds the device had been away when the session ended (None: it was there)."""
 
     def text(self) -> str:
+        from ..device.health import gone_text, link_text
+
         return (f"recorded {self.elapsed_s:.1f} s to {self.output}: {self.frames} frames, "
                 f"{self.forces} forces, {self.audio_s:.1f} s of audio in {self.audio_chunks} "
                 f"chunks, {self.events} events; dropped {self.dropped}; "
-                f"{self.megabytes:.2f} MB; device: lost {self.frames_lost}, CRC errors "
-                f"{self.crc_errors}, reconnects {self.reconnects}")
+                f"{self.megabytes:.2f} MB; device: {link_text(self)}"
+                + gone_text("the device", self.gone_s))
 
 
 def _status_line(seconds: float, rec, ft, name: str, audio) -> str:
@@ -169,6 +176,7 @@ def record_fingertip(settings: RecordSettings, *, port: str | None = None,
     device's, recorder's and audio errors; the device is closed whatever happens.
     """
     from ..device import Fingertip, FingertipError
+    from ..device.health import GoneReporter
 
     ft = (Fingertip(serial_number=serial, name=settings.name) if serial
           else Fingertip(port, name=settings.name)).open()
@@ -193,9 +201,11 @@ def record_fingertip(settings: RecordSettings, *, port: str | None = None,
                 say(settings.announce(f"{name} from {ft.port}"))
             reconnects = ft.stats.reconnects
             last_status = -1.0
+            gone = GoneReporter()
 
             def tick(seconds: float) -> None:
                 nonlocal reconnects, last_status
+                gone.check(ft.name, ft.gone_s, ft.port)
                 if ft.stats.reconnects != reconnects:
                     reconnects = ft.stats.reconnects
                     rec.write_event(name, "reconnect", float(reconnects))
@@ -224,7 +234,8 @@ def record_fingertip(settings: RecordSettings, *, port: str | None = None,
                 events=s.written.get(f"/fingertip/{name}/events", 0),
                 dropped=s.dropped_total, megabytes=s.bytes_written / 1e6,
                 frames_lost=fst.frames_lost, crc_errors=fst.crc_errors,
-                reconnects=fst.reconnects, error=error)
+                reconnects=fst.reconnects, error=error, device_resets=fst.device_resets,
+                outage_frames=fst.outage_frames, gone_s=ft.gone_s)
         finally:
             if audio is not None:
                 audio.stop()

@@ -49,7 +49,8 @@ class RecordWriter:
     def __init__(self, path: Path, *, queue_size: int, flush_interval: float,
                  flush_bytes: int, compression: str, fsync: bool, overwrite: bool,
                  timebase: TimeBase, force_model_of: Callable[[str], ForceModel | None],
-                 audio_metadata_of: Callable[[str], dict[str, str] | None]) -> None:
+                 audio_metadata_of: Callable[[str], dict[str, str] | None],
+                 link_counters: Callable[[], dict[str, dict[str, int]]] = dict) -> None:
         self.path = path
         self.flush_interval = flush_interval
         self.flush_bytes = flush_bytes
@@ -59,6 +60,7 @@ class RecordWriter:
         self.timebase = timebase
         self._force_model_of = force_model_of
         self._audio_metadata_of = audio_metadata_of
+        self._link_counters = link_counters
         self._queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self._lock = threading.Lock()
         self._stats = RecorderStats()
@@ -311,6 +313,7 @@ class RecordWriter:
             "stop_unix_ns": str(self.timebase.to_ns(self.stop_monotonic or time.monotonic())),
             "written": json.dumps(st.written), "dropped": json.dumps(st.dropped),
             "encode_errors": str(st.encode_errors),
+            "devices": json.dumps(self._link_counters()),
         })
         self._mcap.finish()
         self._commit()

@@ -6,7 +6,8 @@ from __future__ import annotations
 import contextlib
 from dataclasses import dataclass
 
-from ..device import FingertipError
+from ..device import BridgeStats, FingertipError
+from ..device.health import link_text
 from ..hand_args import HandSpec
 from .session import Say, StreamError, StreamSettings
 from .text import frame_json, frame_line
@@ -19,13 +20,13 @@ class HandStreamSummary:
 
     frames: int
     fingers: list[str]
-    devices: list[tuple[str, int, int, int, int]]
-    """(port, frames lost, CRC errors, COBS errors, reconnects) per device."""
+    devices: list[tuple[str, BridgeStats]]
+    """(port, its link counters) per device."""
     overruns: int
 
     def text(self) -> str:
-        lines = [f"{port}: lost {lost}, CRC errors {crc}, COBS errors {cobs}, reconnects "
-                 f"{reconnects}" for port, lost, crc, cobs, reconnects in self.devices]
+        lines = [f"{port}: {link_text(st)}, COBS errors {st.cobs_errors}"
+                 for port, st in self.devices]
         lines.append(f"{self.frames} finger frames ({', '.join(self.fingers)}); hand queue "
                      f"overruns {self.overruns}")
         return "\n".join(lines)
@@ -67,11 +68,7 @@ def stream_hand(settings: StreamSettings, spec: HandSpec, *, out: Say) -> HandSt
         finally:
             with contextlib.suppress(FingertipError):
                 hand.stop()
-        devices = []
-        for dev in hand.devices:
-            st = dev.stats
-            devices.append((dev.port, st.frames_lost, st.crc_errors, st.cobs_errors,
-                            st.reconnects))
+        devices = [(dev.port, dev.stats) for dev in hand.devices]
         return HandStreamSummary(n, hand.fingers, devices, hand.overruns)
     finally:
         hand.close()

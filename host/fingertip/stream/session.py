@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..device import Fingertip, FingertipError
+from ..device.health import link_text
 from .text import force_fields, force_text, frame_json, frame_line
 
 Say = Callable[[str], None]
@@ -70,11 +71,11 @@ class StreamSummary:
     cobs_errors: int
     reconnects: int
     device_resets: int
+    outage_frames: int = 0
+    """Of ``frames_lost``, those missing across outages (link lost and back, a restart)."""
 
     def text(self) -> str:
-        return (f"{self.frames} frames; lost {self.frames_lost}, CRC errors {self.crc_errors}, "
-                f"COBS errors {self.cobs_errors}, reconnects {self.reconnects}, device resets "
-                f"{self.device_resets}")
+        return f"{self.frames} frames; {link_text(self)}, COBS errors {self.cobs_errors}"
 
 
 def _plot(channels: int, settings: StreamSettings, force: bool = False):
@@ -136,7 +137,7 @@ def stream_fingertip(settings: StreamSettings, *, port: str | None = None,
                     ft.stop()
             st = ft.stats
             return StreamSummary(n, st.frames_lost, st.crc_errors, st.cobs_errors,
-                                 st.reconnects, st.device_resets)
+                                 st.reconnects, st.device_resets, st.outage_frames)
     finally:
         if plot is not None:
             plot.close()
