@@ -16,7 +16,7 @@ from fingertip.device.outage import (
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 
-from .test_fingertip_pty import wait_for
+from .waiting import wait_for
 
 P = 0.0125  # 80 Hz
 P_US = 12_500
