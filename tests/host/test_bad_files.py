@@ -79,7 +79,7 @@ def good(tmp_path_factory) -> dict[str, Path]:
     return {"mcap": d / "run.mcap", "material": d / "mat" / "material.onnx",
             "force": d / "force.onnx", "wav": next((d / "vib").rglob("*.wav")),
             "csv": d / "cal.csv", "toml": Path(__file__).parents[2] / "host" / "fingertip"
-            / "sim" / "physics" / "fingertip.toml", "vib": d / "vib"}
+            / "hardware" / "fingertip.toml", "vib": d / "vib"}
 
 
 def bad_file(tmp_path: Path, kind: str, like: Path, wrong: Path, suffix: str) -> Path:
