@@ -2,42 +2,29 @@
 
 Every command that loads a model (.onnx), a recording (.mcap, WAV...), a dataset or a
 configuration reports a bad file the same way: ``ERROR fingertip: <file>: <why>`` and exit
-status 2, never a traceback. Loaders raise :class:`BadFileError` (a ``ValueError``, so older
-``except ValueError`` code still catches it); command handlers are wrapped in
+status 2, never a traceback. Loaders raise :class:`~fingertip.errors.BadFileError` (defined
+with the rest of the package's vocabulary in :mod:`fingertip.errors`; a ``ValueError``, so
+older ``except ValueError`` code still catches it); command handlers are wrapped in
 :func:`reports_bad_files`, which turns it, and the operating system's refusals (no such
 file, a folder, no permission), into that one line.
 
-No imports from the rest of the package, so every layer may use it.
+Imports only :mod:`fingertip.errors` (rank 0 too), so every layer may use it.
 """
 from __future__ import annotations
 
 import functools
 import logging
 import os
-import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from .errors import BadFileError, one_line
+
 log = logging.getLogger("fingertip")
 
-MAX_LINE = 300
-"""Characters of a reason kept: library messages can be long (a protobuf dump, a path list)."""
-
-
-class BadFileError(ValueError):
-    """A file that cannot be used for what it was given for. ``path`` names it (may be None
-    when the message already does)."""
-
-    def __init__(self, message: str, path: str | os.PathLike | None = None) -> None:
-        super().__init__(one_line(message))
-        self.path = None if path is None else Path(path)
-
-
-def one_line(text: str, limit: int = MAX_LINE) -> str:
-    """``text`` with its line breaks and runs of spaces folded, cut to ``limit`` characters."""
-    s = re.sub(r"\s+", " ", str(text)).strip()
-    return s if len(s) <= limit else s[:limit - 3].rstrip() + "..."
+__all__ = ["BadFileError", "FILE_ERRORS", "describe", "one_line", "reports_bad_files",
+           "require_file"]
 
 
 def require_file(path: str | os.PathLike, what: str) -> Path:

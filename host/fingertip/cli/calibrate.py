@@ -15,7 +15,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from .argtypes import number
+from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
@@ -171,10 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fingertip", description="Force calibration.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     add_parsers(parser.add_subparsers(dest="command", metavar="COMMAND", required=True))
-    args = parser.parse_args(["calibrate", *(sys.argv[1:] if argv is None else argv)])
-    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
-                        format="%(levelname)s %(name)s: %(message)s")
-    return int(args.func(args))
+    return dispatch(parser, ["calibrate", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from .argtypes import number
+from .argtypes import dispatch, number
 from ..badfile import FILE_ERRORS, reports_bad_files
 
 if TYPE_CHECKING:
@@ -371,9 +371,7 @@ def add_parsers(sub) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="fingertip-classifiers")
     add_parsers(p.add_subparsers(dest="command", metavar="COMMAND", required=True))
-    args = p.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    return int(args.func(args))
+    return dispatch(p, argv)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ from ..flash import FlashError, flash
 from ..hand_args import add_hand_args, hand_spec_from_args
 from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
 from ..transport import DeviceNotFound, TransportError, list_ports
+from .argtypes import channel_list, number
 from .frame_text import frame_json, frame_line
 from .hand_stream import apply_stream_settings, stream_hand
 
@@ -136,8 +137,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_tare(args: argparse.Namespace) -> int:
     """Average readings on the device and subtract them from then on."""
     with _open(args) as ft:
-        chans = [int(c) for c in args.channels.split(",")] if args.channels else None
-        offsets = ft.tare(chans, samples=args.samples)
+        offsets = ft.tare(args.channels, samples=args.samples)
         print("tare offsets: " + ", ".join(map(str, offsets)))
     return 0
 
@@ -297,8 +297,10 @@ def add_parsers(sub) -> None:
     t = sub.add_parser("tare", help="zero the channels on the device",
                        description=_cmd_tare.__doc__)
     _add_device_args(t)
-    t.add_argument("--samples", type=int, default=16, help="readings to average (1-256)")
-    t.add_argument("--channels", help="comma-separated channel numbers (default: all)")
+    t.add_argument("--samples", type=number(int, 1, 256), default=16,
+                   help="readings to average (1-256)")
+    t.add_argument("--channels", type=channel_list,
+                   help="comma-separated channel numbers (default: all)")
     t.set_defaults(func=_cmd_tare)
 
     st = sub.add_parser("stream", help="show the live frame stream",
@@ -308,9 +310,11 @@ def add_parsers(sub) -> None:
     st.add_argument("--duration", type=float, help="stop after S seconds")
     st.add_argument("--json", action="store_true", help="one JSON object per frame")
     st.add_argument("--rate", type=int, choices=(10, 80), help="the chips' rate (RATE pin)")
-    st.add_argument("--decimation", type=int, help="keep every n-th conversion")
+    st.add_argument("--decimation", type=number(int, 1, 255),
+                    help="keep every n-th conversion (1-255)")
     st.add_argument("--gain", type=int, choices=(128, 64, 32))
-    st.add_argument("--tare", type=int, metavar="N", help="tare with N samples first")
+    st.add_argument("--tare", type=number(int, 1, 256), metavar="N",
+                    help="tare with N samples (1-256) first")
     st.add_argument("--plot", action="store_true", help="a live plot in a window")
     st.add_argument("--plot-png", metavar="FILE",
                     help="a live plot written to FILE every second (no screen needed)")

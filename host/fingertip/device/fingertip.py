@@ -19,6 +19,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
+from ..errors import BadArgumentError, BadArgumentTypeError, DeviceError
 from ..protocol import (
     INT24_MAX, INT24_MIN,
     MAX_CHANNELS, MAX_TARE_SAMPLES, VALID_GAINS, VALID_RATES, Ack, Command, ErrorCode,
@@ -41,8 +42,12 @@ firmware built before 1 Mbaud became the default runs at 115200): with ``baudrat
 StreamFactory = Callable[[str], ByteStream]
 
 
-class FingertipError(RuntimeError):
-    """Base class of the errors a :class:`Fingertip` raises from its commands."""
+class FingertipError(DeviceError):
+    """Base class of the errors a :class:`Fingertip` raises from its commands (a
+    :class:`~fingertip.errors.DeviceError`, so a ``RuntimeError``). Exit status 2 at the
+    command line: the port or device the user named cannot serve the command."""
+
+    exit_code = 2
 
 
 class CommandFailed(FingertipError):
@@ -69,10 +74,10 @@ def check_int(name: str, value: object, lo: int, hi: int) -> int:
     """``value`` as an int if it is an integer in lo..hi, else a ValueError (TypeError for
     a non-integer) that names the allowed range."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an integer in {lo}..{hi}, not {value!r}")
+        raise BadArgumentTypeError(f"{name} must be an integer in {lo}..{hi}, not {value!r}")
     v = int(value)  # type: ignore[arg-type]
     if not lo <= v <= hi:
-        raise ValueError(f"{name} must be in {lo}..{hi}, not {v}")
+        raise BadArgumentError(f"{name} must be in {lo}..{hi}, not {v}")
     return v
 
 
@@ -195,7 +200,7 @@ class Fingertip(FrameSource):
             check_int("baudrate", baudrate, 1, 10_000_000)
         for what, v in (("command_timeout", command_timeout), ("open_timeout", open_timeout)):
             if not (isinstance(v, int | float) and 0 < v < float("inf")):
-                raise ValueError(f"{what} must be a positive number of seconds, not {v!r}")
+                raise BadArgumentError(f"{what} must be a positive number of seconds, not {v!r}")
         self._port_arg = port
         self.serial_number = serial_number
         self._rates = (baudrate,) if baudrate else DEVICE_RATES
@@ -391,7 +396,7 @@ class Fingertip(FrameSource):
         a timeout, so that a loop cannot spin on a dead device.
         """
         if timeout is not None and not timeout >= 0:
-            raise ValueError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
+            raise BadArgumentError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
         if self._queue is None:
             raise self._no_queue()
         with self._cond:
@@ -462,7 +467,7 @@ class Fingertip(FrameSource):
     def set_rate(self, rate_sps: int, decimation: int = 1) -> None:
         """Tell the device its chips' rate (10 or 80 SPS) and keep every n-th conversion."""
         if rate_sps not in VALID_RATES:
-            raise ValueError(f"rate must be one of {', '.join(map(str, VALID_RATES))} SPS "
+            raise BadArgumentError(f"rate must be one of {', '.join(map(str, VALID_RATES))} SPS "
                              f"(the HX711's RATE pin), not {rate_sps!r}")
         decimation = check_int("decimation", decimation, 1, 255)
         self._command(SetRate(0, rate_sps, decimation))
@@ -470,7 +475,7 @@ class Fingertip(FrameSource):
 
     def set_gain(self, gain: int) -> None:
         if gain not in VALID_GAINS:
-            raise ValueError(f"gain must be one of {', '.join(map(str, VALID_GAINS))}, "
+            raise BadArgumentError(f"gain must be one of {', '.join(map(str, VALID_GAINS))}, "
                              f"not {gain!r}")
         self._command(SetGain(0, gain))
         self.settings.gain = gain
@@ -496,13 +501,20 @@ class Fingertip(FrameSource):
         elif isinstance(channels, int):
             mask = check_int("tare channel mask", channels, 1, 0xFFFF)  # the device judges
         else:
+            if isinstance(channels, str | bytes) or not hasattr(channels, "__iter__"):
+                raise BadArgumentTypeError(f"tare channels must be a list of channel numbers "
+                                           f"(0..{n - 1}), a bit mask or None, not "
+                                           f"{channels!r}")
             mask = 0
             for c in channels:
+                if isinstance(c, bool) or not isinstance(c, numbers.Integral):
+                    raise BadArgumentTypeError(f"tare channels are integers 0..{n - 1}, not "
+                                               f"{c!r}")
                 if not 0 <= c < n:
-                    raise ValueError(f"channel {c} does not exist (this device has {n})")
+                    raise BadArgumentError(f"channel {c} does not exist (this device has {n})")
                 mask |= 1 << c
             if not mask:
-                raise ValueError("tare needs at least one channel (an empty list was given)")
+                raise BadArgumentError("tare needs at least one channel (an empty list was given)")
         s = self.settings
         wait = samples * s.decimation / s.rate_sps * 1.6 + 0.5
         self._command(Tare(0, mask, samples), timeout=wait, retries=0)
@@ -513,7 +525,7 @@ class Fingertip(FrameSource):
     def set_tare_offsets(self, offsets: list[int] | tuple[int, ...]) -> None:
         """Put known offsets (one per channel) back on the device."""
         if len(offsets) != self.channels:
-            raise ValueError(f"need {self.channels} offsets, got {len(offsets)}")
+            raise BadArgumentError(f"need {self.channels} offsets, got {len(offsets)}")
         offsets = tuple(check_int("a tare offset", v, INT24_MIN, INT24_MAX) for v in offsets)
         padded = tuple(offsets) + (0,) * (MAX_CHANNELS - len(offsets))
         self._command(SetTareOffsets(0, (1 << len(offsets)) - 1, padded))
