@@ -12,8 +12,8 @@ calibrate, sim dataset, check --json, plots), so that nothing a user has is lost
   or does not exist (never over ``/dev/null`` or ``/dev/full``).
 
 Refusals are :class:`~fingertip.errors.OutputRefused` (an output) or
-:class:`~fingertip.errors.BadFileError` (an input): exit status 2. Imports only
-:mod:`fingertip.errors`, so every layer may use it.
+:class:`~fingertip.errors.BadFileError` (an input, :func:`~fingertip.badfile.check_input`):
+exit status 2. Imports only :mod:`fingertip.errors` and :mod:`fingertip.badfile`.
 """
 from __future__ import annotations
 
@@ -24,40 +24,10 @@ import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from .errors import BadFileError, OutputRefused
+from .badfile import special_kind, stat_or_none
+from .errors import OutputRefused
 
 PathLike = str | os.PathLike
-
-
-def special_kind(mode: int) -> str | None:
-    """What a file of ``mode`` is when it is not a regular file or a folder (a FIFO, a
-    device, a socket), else None."""
-    if stat.S_ISFIFO(mode):
-        return "a FIFO (named pipe)"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "a device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return None
-
-
-def _stat(path: Path) -> os.stat_result | None:
-    try:
-        return path.stat()
-    except FileNotFoundError:
-        return None
-    except OSError:
-        return None  # a broken link, no permission on a parent: open() names it later
-
-
-def check_input(path: PathLike, what: str = "file") -> Path:
-    """``path`` unless it is a FIFO, a device or a socket (refused before it is opened:
-    reading one may block for ever). A missing file is left for the opener to name."""
-    p = Path(path)
-    st = _stat(p)
-    if st is not None and (kind := special_kind(st.st_mode)) is not None:
-        raise BadFileError(f"{p}: is {kind}, not a regular file (expected {what})", p)
-    return p
 
 
 def _same(a: Path, b: Path) -> bool:
@@ -76,7 +46,7 @@ def check_output(path: PathLike, *, force: bool = False, inputs: Iterable[PathLi
     p = Path(path)
     if str(path) == "":
         raise OutputRefused(f"the {what} path is empty: give a file name")
-    st = _stat(p)
+    st = stat_or_none(p)
     for i in inputs:
         if st is not None and _same(p, Path(i)):
             raise OutputRefused(f"{p}: the {what} is also an input: give another name")
@@ -116,7 +86,7 @@ def replace(tmp: PathLike, dest: PathLike) -> None:
     """Rename ``tmp`` over ``dest`` if ``dest`` is a regular file or missing; otherwise
     remove ``tmp`` and refuse (a device node or a FIFO is never replaced)."""
     d = Path(dest)
-    st = _stat(d)
+    st = stat_or_none(d)
     if st is not None and not stat.S_ISREG(st.st_mode):
         with contextlib.suppress(OSError):
             os.unlink(tmp)

@@ -183,7 +183,10 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         print("no prediction (the audio ended before one window)")
     else:
         clipped = sum(p.clipped for p in preds)
-        print(f"vote: {vote} ({100 * shares[vote]:.0f} % of {len(preds)} predictions)"
+        share = (f"{100 * shares[vote]:.0f} % of {len(preds)} predictions" if vote in shares
+                 else f"farther from every class than the model's threshold; "
+                      f"{len(preds)} predictions")
+        print(f"vote: {vote} ({share})"
               + (f"; {clipped} window(s) clipped" if clipped else ""))
     return 0
 

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..outputs import check_input
+
 log = logging.getLogger(__name__)
 
 Say = Callable[[str], None]
@@ -78,8 +80,34 @@ def open_audio(device: str | None, file: str | None, *, rate: float, channels: i
         dev: int | str = int(device) if device.isdigit() else device
         return SoundDeviceSource(dev, rate, channels=channels, dtype=dtype)
     if file:
-        return FileSource(file, realtime=True)
+        check_input(file, "a WAV or FLAC file")  # a FIFO would block open() for ever
+        src = FileSource(file, realtime=True)
+        warn_if_unusable(src)
+        return src
     return None
+
+
+WARN_READ_LIMIT = 20_000_000
+"""Samples of an --audio-file read ahead to check it (beyond: not checked, only streamed)."""
+
+
+def warn_if_unusable(src) -> None:
+    """Warn when the audio file of ``src`` (a FileSource) is silent, constant, non-finite or
+    clipped (:func:`~fingertip.audio.sanity.signal_problem`): it is recorded all the same,
+    as it is what was asked for."""
+    import soundfile as sf
+
+    from ..audio.sanity import signal_problem
+
+    if src.frames_total * src.channels > WARN_READ_LIMIT:
+        return
+    try:
+        x, _ = sf.read(str(src.path), dtype="float64", always_2d=True)
+    except (sf.SoundFileError, RuntimeError, OSError):
+        return  # the source reports its own read errors when it plays
+    if (problem := signal_problem(x, 1.0)) is not None:
+        log.warning("%s: %s: recorded as it is, but check the file", src.path,
+                    problem)
 
 
 @contextlib.contextmanager
