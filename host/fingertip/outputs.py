@@ -27,6 +27,11 @@ from pathlib import Path
 from .badfile import special_kind, stat_or_none
 from .errors import OutputRefused
 
+
+class OutputExists(OutputRefused, FileExistsError):
+    """The output exists and ``--force`` was not given (also a FileExistsError, which older
+    callers catch)."""
+
 PathLike = str | os.PathLike
 
 
@@ -61,11 +66,11 @@ def check_output(path: PathLike, *, force: bool = False, inputs: Iterable[PathLi
                                 "it, or choose another folder)")
         return p
     if st is not None and stat.S_ISDIR(st.st_mode):
-        raise OutputRefused(f"{p}: is a folder: give a file name such as "
+        raise OutputRefused(f"{p} is a directory: give a file name such as "
                             f"{p / ('run' + (p.suffix or '.mcap'))}")
     if st is not None and not force:
-        raise OutputRefused(f"{p}: already exists (choose another name, or add --force to "
-                            "replace it)")
+        raise OutputExists(f"{p} already exists (choose another name, or add --force to "
+                           "replace it)")
     parent = p.parent if str(p.parent) else Path(".")
     if not parent.is_dir():
         raise OutputRefused(f"{p}: its folder {parent} does not exist")
@@ -78,8 +83,22 @@ def temp_path(dest: PathLike) -> Path:
     d = Path(dest)
     fd, name = tempfile.mkstemp(prefix=f".{d.name[:40]}.", suffix=".part",
                                 dir=d.parent if str(d.parent) else ".")
-    os.close(fd)
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())  # mkstemp's 0600 would outlive the rename
+    finally:
+        os.close(fd)
     return Path(name)
+
+
+def _umask() -> int:
+    """The process's umask (Linux reports it without changing it)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    return 0o022
 
 
 def replace(tmp: PathLike, dest: PathLike) -> None:

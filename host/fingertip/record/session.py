@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..outputs import check_input
+from ..badfile import check_input
 
 log = logging.getLogger(__name__)
 
@@ -60,14 +60,12 @@ class RecordSettings:
                 + (f" for {self.duration:g} s" if self.duration else " (Ctrl-C to stop)"))
 
 
-def check_output(path: Path, overwrite: bool) -> None:
-    """Refuse a folder, or an existing file unless ``overwrite`` (before any device opens)."""
-    if path.is_dir():
-        raise SessionError(f"{path} is a directory: give a file name such as "
-                           f"{path / 'run.mcap'}")
-    if path.exists() and path.is_file() and not overwrite:
-        raise SessionError(f"{path} already exists (choose another name, or add --force to "
-                           "replace it)")
+def check_output(path: Path, overwrite: bool, inputs=()) -> None:
+    """Refuse a folder, a FIFO, a device, one of ``inputs``, or an existing file unless
+    ``overwrite`` (before any device opens): :func:`fingertip.outputs.check_output`."""
+    from ..outputs import check_output as check
+
+    check(path, force=overwrite, inputs=inputs, what="recording")
 
 
 def open_audio(device: str | None, file: str | None, *, rate: float, channels: int,
