@@ -5,30 +5,29 @@ interrupted).
 
 :mod:`.app` builds the parser from every group's ``add_parsers`` and holds the parser's
 ``main``; :func:`main` here (the ``fingertip`` entry point; ``python -m fingertip.cli`` runs
-the same) handles the stop signals *before* it imports the command modules, so a Ctrl-C in
-the first fraction of a second is one line too.
+the same) handles the stop signals *before* it imports the command modules (this module
+imports nothing at all, and ``import fingertip`` loads its layers only on first use), so a
+Ctrl-C in the first fraction of a second is one line too.
 """
 from __future__ import annotations
-
-from collections.abc import Sequence
-from typing import Any
 
 __all__ = ["build_parser", "main"]
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
     """Run ``fingertip`` with ``argv`` (default: the process's arguments); the exit status."""
     from .stopping import interrupted, stop_signals
 
     with stop_signals():
         try:
             from .app import main as run
-        except KeyboardInterrupt as e:
+
+            return run(argv)
+        except KeyboardInterrupt as e:  # while importing or building the parser
             return interrupted(e)
-        return run(argv)
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     if name == "build_parser":
         from .app import build_parser
 

@@ -21,15 +21,18 @@ from pathlib import Path
 from typing import Any
 
 from ..badfile import check_input
+from ..errors import Error
 
 log = logging.getLogger(__name__)
 
 Say = Callable[[str], None]
 
 
-class SessionError(Exception):
+class SessionError(Error):
     """A user error found before recording (the output path, a refused force model): one
-    line."""
+    line, exit status 2."""
+
+    exit_code = 2
 
 
 @dataclass(frozen=True)
@@ -63,9 +66,13 @@ class RecordSettings:
 def check_output(path: Path, overwrite: bool, inputs=()) -> None:
     """Refuse a folder, a FIFO, a device, one of ``inputs``, or an existing file unless
     ``overwrite`` (before any device opens): :func:`fingertip.outputs.check_output`."""
+    from ..errors import OutputRefused
     from ..outputs import check_output as check
 
-    check(path, force=overwrite, inputs=inputs, what="recording")
+    try:
+        check(path, force=overwrite, inputs=inputs, what="recording")
+    except OutputRefused as e:
+        raise SessionError(str(e)) from e
 
 
 def open_audio(device: str | None, file: str | None, *, rate: float, channels: int,
