@@ -16,9 +16,10 @@ __all__ = ["build_parser", "main"]
 
 def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
     """Run ``fingertip`` with ``argv`` (default: the process's arguments); the exit status."""
-    from .stopping import interrupted, stop_signals
+    from .stopping import configure_logging, interrupted, stop_signals
 
     with stop_signals():
+        configure_logging()
         try:
             from .app import main as run
 

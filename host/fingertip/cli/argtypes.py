@@ -6,7 +6,6 @@ No imports from the rest of the package, so every layer's CLI module can use it.
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from collections.abc import Callable, Sequence
 
@@ -54,19 +53,16 @@ def dispatch(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None)
     and exit status 2 when none was chosen), with the stop signals handled from the start
     and every error turned into one line and an exit status
     (:func:`~fingertip.cli.stopping.run_command`)."""
-    from .stopping import interrupted, run_command, stop_signals
+    from .stopping import configure_logging, interrupted, run_command, stop_signals
 
     with stop_signals():
-        ours = not logging.getLogger().handlers  # in-process callers keep their logging
-        if ours:
-            logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+        configure_logging()
         try:
             args = parser.parse_args(argv)
         except KeyboardInterrupt as e:
             return interrupted(e)
         verbose = getattr(args, "verbose", 0) or 0
-        if ours:
-            logging.getLogger().setLevel(logging.WARNING - 10 * min(verbose, 2))
+        configure_logging(verbose)
         if not getattr(args, "func", None):
             parser.print_help()
             return 2

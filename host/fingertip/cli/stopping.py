@@ -28,6 +28,22 @@ STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP")
                      if hasattr(signal, n))
 
 
+FORMAT = "%(levelname)s %(name)s: %(message)s"
+
+
+def configure_logging(verbose: int | None = None) -> None:
+    """Log lines as ``ERROR fingertip: ...`` on stderr, at WARNING (``verbose``: INFO, DEBUG),
+    unless the caller (an in-process user, a test) set up logging already; called before
+    anything can fail, so even an interrupt during start-up is reported."""
+    root = logging.getLogger()
+    ours = getattr(root, "_fingertip_cli", False)
+    if not root.handlers:
+        logging.basicConfig(format=FORMAT)
+        root._fingertip_cli = ours = True  # type: ignore[attr-defined]
+    if ours and verbose is not None:
+        root.setLevel(logging.WARNING - 10 * min(verbose, 2))
+
+
 class Interrupted(KeyboardInterrupt):
     """A stop signal arrived; ``signame`` says which (SIGINT, SIGTERM, SIGHUP)."""
 
