@@ -74,7 +74,9 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     protocol, export each to ONNX, time them with onnxruntime, and choose the fastest within
     the error bound. See docs/calibration.md."""
     from ..models.calibrate import CalibrationError, fit_calibration
+    from ..outputs import check_output
 
+    check_output(args.out, force=True, what="calibration folder", folder=True)
     data, summary = _load(args)
     if data is None:
         return 2

@@ -87,7 +87,16 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               augment=AugmentConfig(copies=args.augment),
                               cnn_budget=args.cnn_budget)
 
+    _check_out(args.out)
     return _run_training(train, material_summary_lines, args.json)
+
+
+def _check_out(out: str) -> None:
+    """The trainers' output folder: created, or an existing folder (their files in it are
+    replaced); never a file, a FIFO or a device."""
+    from ..outputs import check_output
+
+    check_output(out, force=True, what="model folder", folder=True)
 
 
 def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
@@ -127,6 +136,7 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
                            rate_hint=args.rate_hint, max_hz=args.max_hz,
                            cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
 
+    _check_out(args.out)
     return _run_training(train, shake_summary_lines, args.json)
 
 
