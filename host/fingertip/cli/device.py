@@ -10,6 +10,7 @@ import logging
 import sys
 from pathlib import Path
 
+from ..badfile import check_input
 from ..device import Fingertip, FingertipError
 from ..flash import FlashError, flash
 from ..hand_args import add_hand_args, hand_spec_from_args
@@ -26,6 +27,8 @@ def _cmd_decode(args: argparse.Namespace) -> int:
     """Decode a file of raw wire bytes (a capture of the serial stream)."""
     path = Path(args.file)
     try:
+        if args.file != "-":
+            check_input(path, "capture of wire bytes")  # a FIFO would block for ever
         data = path.read_bytes() if args.file != "-" else sys.stdin.buffer.read()
     except OSError as e:
         log.error("cannot read %s: %s", path, e.strerror or e)
