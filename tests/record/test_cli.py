@@ -13,6 +13,7 @@ import pytest
 import soundfile as sf
 
 from fingertip.record import Recording
+from tests.children import default_signals
 from fingertip.cli.record import add_parsers, main
 
 logging.getLogger("fingertip").setLevel(logging.INFO)
@@ -183,7 +184,8 @@ def test_stop_signals_finish_the_file(device, tmp_path, sig):
     out = tmp_path / "sig.mcap"
     proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", "record", "--port",
                              str(device.link), "-o", str(out)],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=default_signals)
     try:
         assert "recording" in proc.stderr.readline()
         time.sleep(0.8)

@@ -25,6 +25,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from tests.children import default_signals
+
 from .cases import Case
 from .workspace import Workspace
 
@@ -118,10 +120,6 @@ def run_cli(argv: list[str], ws: Workspace, timeout: float) -> tuple[int | None,
     return result.get("code"), text, handler.records, hung  # type: ignore[return-value]
 
 
-def _child_default_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-
 def _child_ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
@@ -132,7 +130,7 @@ def run_proc(case: Case, argv: list[str], timeout: float) -> tuple[int | None, s
     env = dict(os.environ)
     root = Path(__file__).resolve().parents[2]
     env["PYTHONPATH"] = os.pathsep.join([str(root / "host"), env.get("PYTHONPATH", "")])
-    pre = _child_ignore_sigint if case.sigint_ignored else _child_default_sigint
+    pre = _child_ignore_sigint if case.sigint_ignored else default_signals
     proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", *argv],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             env=env, preexec_fn=pre)

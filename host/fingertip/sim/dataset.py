@@ -35,6 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .. import __version__
+from ..errors import Error
 from ..protocol.messages import INT24_MAX, INT24_MIN
 from .physics import (
     BOX_CONTENTS,
@@ -101,12 +102,13 @@ MANIFEST_COLUMNS = ("file", "class", "seed", "duration_s", "rate_hz", "frames", 
                     "normal_n", "clipped_fraction", "rms_dbfs", "params")
 
 
-class DatasetError(RuntimeError):
-    """The dataset cannot be written. ``code``: 2 for a user error (bad argument, output
-    folder not empty or not writable), 1 when writing failed part-way (disk full...)."""
+class DatasetError(Error, RuntimeError):
+    """The dataset cannot be written. ``code`` (= ``exit_code``): 2 for a user error (bad
+    argument, output folder not empty or not writable), 1 when writing failed part-way (disk
+    full...)."""
 
     def __init__(self, message: str, code: int = 2) -> None:
-        super().__init__(message)
+        super().__init__(message, exit_code=code)
         self.code = code
 
 
