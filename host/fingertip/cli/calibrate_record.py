@@ -21,7 +21,9 @@ def _rdt_address(text: str) -> tuple[str, int]:
 
     host, port = text, ""
     if text.startswith("["):
-        host, _, rest = text[1:].partition("]")
+        host, bracket, rest = text[1:].partition("]")
+        if not bracket:
+            raise argparse.ArgumentTypeError(f"{text!r}: no closing ']': give [IPv6]:PORT")
         if rest and not rest.startswith(":"):
             raise argparse.ArgumentTypeError(f"{text!r}: give [IPv6]:PORT")
         port = rest[1:]

@@ -193,7 +193,7 @@ class Fingertip(FrameSource):
                  command_timeout: float = 0.5, retries: int = 2, open_timeout: float = 4.0,
                  name: str | None = None, reader: SharedReader | None = None) -> None:
         if (port is None) == (serial_number is None):
-            raise ValueError("give exactly one of port or serial_number")
+            raise BadArgumentError("give exactly one of port or serial_number")
         check_int("queue_size", queue_size, 0, 1 << 24)
         check_int("retries", retries, 0, 100)
         if baudrate is not None:

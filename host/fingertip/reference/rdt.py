@@ -109,6 +109,8 @@ class RdtClient:
                  counts_per_force: float = DEFAULT_COUNTS_PER_UNIT,
                  counts_per_torque: float = DEFAULT_COUNTS_PER_UNIT,
                  first_packet_timeout: float = 2.0) -> None:
+        if not (isinstance(port, int) and 1 <= port <= 65535):
+            raise ReferenceError(f"RDT sensor {host}:{port}: the port must be 1-65535")
         self.host, self.port = host, port
         self.name = f"rdt://{host}:{port}"
         self.cpf, self.cpt = float(counts_per_force), float(counts_per_torque)

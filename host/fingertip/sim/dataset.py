@@ -35,6 +35,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .. import __version__
+from ..badfile import check_input
 from ..errors import Error
 from ..protocol.messages import INT24_MAX, INT24_MIN
 from .physics import (
@@ -231,9 +232,10 @@ def _remove_dataset(out: Path, meta: dict[str, Any]) -> None:
 
 
 def _write_meta(out: Path, meta: dict[str, Any]) -> None:
-    tmp = out / (META_FILE + ".tmp")
-    tmp.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, out / META_FILE)
+    from ..outputs import atomic_output
+
+    with atomic_output(out / META_FILE) as tmp:
+        tmp.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
 
 
 @dataclass
@@ -259,6 +261,7 @@ def _load_params(params_file: str | os.PathLike | None):
     if params_file is None:
         return load(), None
     try:
+        check_input(params_file, "TOML parameter file")  # a FIFO would block for ever
         return load(params_file), str(params_file)
     except OSError as e:
         raise DatasetError(f"cannot read {params_file}: {e.strerror or e}") from e
