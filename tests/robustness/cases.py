@@ -78,7 +78,7 @@ for name, says in BAD_AUDIO.items():
              _at(RECORD_AUDIO, name),
              2, says))
 add(Case("classify-file-cut_wav", _at(CLASSIFY, "cut_wav"), 2, "cut.wav"),
-    Case("record-warns-cut_wav", _at(RECORD_AUDIO, "cut_wav"), 0, "empty"))
+    Case("record-takes-cut_wav", _at(RECORD_AUDIO, "cut_wav"), 0, "recorded"))
 for name, says in (("silent_wav", "silent"), ("const_wav", "constant"),
                    ("clip_wav", "clipped")):
     add(Case(f"classify-warns-{name}", _at(CLASSIFY, name), 0, says))
