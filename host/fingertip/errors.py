@@ -127,7 +127,8 @@ def describe(e: BaseException) -> str:
         return one_line(f"not a text file ({e.reason} at byte {e.start})")
     text = one_line(e)
     if isinstance(e, Error) or hasattr(e, "exit_code") or (
-            isinstance(e, ValueError | LookupError) and text):
+            isinstance(e, ValueError | LookupError) and not isinstance(e, KeyError | IndexError)
+            and text):  # a KeyError's text is only the key: a defect of ours
         return text or type(e).__name__
     # Anything else is a defect of ours: say what it was, and how to see where.
     return one_line(f"internal error: {type(e).__name__}: {text or '(no message)'} "
