@@ -38,7 +38,7 @@ class ReferenceSamples:
         """Raise :class:`ReferenceError` when there is nothing to calibrate against."""
         if len(self) < 10:
             raise ReferenceError(f"{self.source or 'the reference'}: only {len(self)} "
-                                 "usable samples arrived" + (unusable_text(self.counters)
+                                 "samples arrived" + (unusable_text(self.counters)
                                  or " (is it streaming to this host?)"))
         mag = np.hypot(self.force[:, 0], self.force[:, 1])
         span = float(np.percentile(mag, 99) - np.percentile(mag, 1))
