@@ -9,6 +9,7 @@ that path.
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import socket
 import threading
@@ -76,6 +77,11 @@ class RdtServer:
 def build(root: Path, *, model: bool = True) -> Workspace:
     """Everything the cases need under ``root`` (a virtual fingertip keeps running until
     :meth:`Workspace.close`)."""
+    with contextlib.redirect_stdout(io.StringIO()):  # the set-up's own reports
+        return _build(root, model)
+
+
+def _build(root: Path, model: bool) -> Workspace:
     from fingertip.cli import main
     from fingertip.sim import VirtualFirmware
     from fingertip.sim.physics import Idle, VirtualStrainSensor

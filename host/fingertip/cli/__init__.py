@@ -16,7 +16,7 @@ __all__ = ["build_parser", "main"]
 
 def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
     """Run ``fingertip`` with ``argv`` (default: the process's arguments); the exit status."""
-    from .stopping import configure_logging, interrupted, stop_signals
+    from .stopping import configure_logging, failed, interrupted, stop_signals
 
     with stop_signals():
         configure_logging()
@@ -26,6 +26,8 @@ def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
             return run(argv)
         except KeyboardInterrupt as e:  # while importing or building the parser
             return interrupted(e)
+        except Exception as e:  # noqa: BLE001 - e.g. an import the interrupt broke
+            return failed(e)
 
 
 def __getattr__(name: str) -> object:

@@ -100,5 +100,17 @@ def run_command(fn: Callable[[Any], int], args: Any, verbose: int = 0) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as e:  # noqa: BLE001 - the one place every error becomes one line
-        log.error("%s", describe(e), exc_info=verbose > 0)
-        return exit_code(e)
+        return failed(e, verbose)
+
+
+def failed(e: Exception, verbose: int = 0) -> int:
+    """One ERROR line for ``e`` and its exit status. An interrupt that a library turned into
+    another exception (numpy makes an ImportError of a Ctrl-C during its import) is still
+    an interrupt."""
+    seen: BaseException | None = e
+    for _ in range(10):
+        seen = seen.__cause__ or seen.__context__ if seen is not None else None
+        if isinstance(seen, KeyboardInterrupt):
+            return interrupted(seen, verbose)
+    log.error("%s", describe(e), exc_info=verbose > 0)
+    return exit_code(e)
