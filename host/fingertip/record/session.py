@@ -15,7 +15,7 @@ import logging
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -63,7 +63,7 @@ class RecordSettings:
                 + (f" for {self.duration:g} s" if self.duration else " (Ctrl-C to stop)"))
 
 
-def check_output(path: Path, overwrite: bool, inputs=()) -> None:
+def check_output(path: Path, overwrite: bool, inputs: Iterable[str | Path] = ()) -> None:
     """Refuse a folder, a FIFO, a device, one of ``inputs``, or an existing file unless
     ``overwrite`` (before any device opens): :func:`fingertip.outputs.check_output`."""
     from ..errors import OutputRefused
