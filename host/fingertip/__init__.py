@@ -9,18 +9,27 @@ __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
-from .device import (  # noqa: E402  (after the version, which submodules may read)
-    BridgeStats,
-    CommandFailed,
-    CommandTimeout,
-    FingerFrame,
-    Fingertip,
-    FingertipError,
-    Frame,
-    Hand,
-    NotConnected,
-)
-from .protocol import ProtocolVersionError  # noqa: E402
+_LAZY = {**dict.fromkeys(("BridgeStats", "CommandFailed", "CommandTimeout", "FingerFrame",
+                          "Fingertip", "FingertipError", "Frame", "Hand", "NotConnected"),
+                         "device"),
+         "ProtocolVersionError": "protocol"}
+"""The public names, imported on first use: ``import fingertip`` stays cheap, so the command
+line handles Ctrl-C before the heavier layers load (an interrupt while they import would be
+a traceback)."""
 
 __all__ = ["BridgeStats", "CommandFailed", "CommandTimeout", "FingerFrame", "Fingertip",
            "FingertipError", "Frame", "Hand", "NotConnected", "ProtocolVersionError", "__version__"]
+
+
+def __getattr__(name: str):
+    import importlib
+
+    if name in _LAZY:
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

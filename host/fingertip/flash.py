@@ -18,6 +18,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .errors import DeviceError
+
 log = logging.getLogger(__name__)
 
 MCU = "atmega328p"
@@ -31,12 +33,13 @@ CHANNEL_BUILDS = {4: "fw4", 16: "fw16"}
 Runner = Callable[..., subprocess.CompletedProcess]
 
 
-class FlashError(Exception):
-    """Flashing cannot proceed or failed; ``code`` is the exit status for the command line
-    (2: set-up problem such as a missing tool, port or file; 1: avrdude failed)."""
+class FlashError(DeviceError):
+    """Flashing cannot proceed or failed; ``code`` (= ``exit_code``) is the exit status for
+    the command line (2: set-up problem such as a missing tool, port or file; 1: avrdude
+    failed)."""
 
     def __init__(self, message: str, code: int = 2) -> None:
-        super().__init__(message)
+        super().__init__(message, exit_code=code)
         self.code = code
 
 

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.children import default_signals
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -42,7 +44,7 @@ def cli(*args: str) -> list[str]:
 
 def start(*args: str) -> subprocess.Popen:
     return subprocess.Popen(cli(*args), env=env(), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=default_signals)
 
 
 def wait_line(proc: subprocess.Popen, prefix: str, max_lines: int = 50) -> None:

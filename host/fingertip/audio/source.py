@@ -10,12 +10,17 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..errors import DeviceError
+
 from .chunk import AudioStats, Chunk
 from .ring import SUPPORTED_DTYPES, RingBuffer
 
 
-class AudioError(RuntimeError):
-    """Base class of the errors of the audio layer."""
+class AudioError(DeviceError):
+    """Base class of the errors of the audio layer (a :class:`~fingertip.errors.DeviceError`,
+    a RuntimeError; exit status 2: the sound card or file the user named)."""
+
+    exit_code = 2
 
 
 class AudioBackendError(AudioError):

@@ -8,6 +8,8 @@ import logging
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..outputs import atomic_output
+
 from .results import Report
 
 log = logging.getLogger("fingertip")
@@ -30,8 +32,8 @@ def finish(args: argparse.Namespace, labels: Sequence[str], reports: Sequence[Re
     tables or the JSON; the exit code: 0 passed, 1 a check failed, 2 no report written."""
     doc = report_doc(labels, reports, key)
     try:
-        Path(args.report).write_text(json.dumps(doc, indent=1, default=str) + "\n",
-                                     encoding="utf-8")
+        with atomic_output(args.report) as tmp:  # a unique temporary file, then renamed
+            tmp.write_text(json.dumps(doc, indent=1, default=str) + "\n", encoding="utf-8")
     except OSError as e:
         log.error("cannot write %s: %s", args.report, e.strerror or e)
         return 2

@@ -1,6 +1,6 @@
 """``python -m fingertip.cli ...`` (the same as ``fingertip ...``)."""
 import sys
 
-from .app import main
+from . import main
 
 sys.exit(main())

@@ -1,11 +1,11 @@
-"""Command-line plumbing shared by every CLI module: ranged numbers, and running a parser.
+"""Command-line plumbing shared by every CLI module: ranged numbers, and running a parser
+(signals and the mapping of errors to exit statuses: :mod:`.stopping`).
 
 No imports from the rest of the package, so every layer's CLI module can use it.
 """
 from __future__ import annotations
 
 import argparse
-import logging
 import math
 from collections.abc import Callable, Sequence
 
@@ -36,13 +36,34 @@ def number(kind: type = float, lo: float | None = None, hi: float | None = None,
     return parse
 
 
+def channel_list(text: str) -> list[int]:
+    """An argparse ``type`` for ``0,1,3``: channel numbers 0..15, each once."""
+    try:
+        out = [int(c) for c in text.split(",") if c.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"channels are comma-separated numbers 0-15 such as "
+                                         f"0,1,3, not {text!r}") from None
+    if not out or any(not 0 <= c <= 15 for c in out) or len(set(out)) != len(out):
+        raise argparse.ArgumentTypeError(f"channels are distinct numbers 0-15, not {text!r}")
+    return out
+
+
 def dispatch(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:
-    """Parse, set up logging from ``-v``, and run the chosen sub-command's ``func``
-    (help and exit status 2 when none was chosen)."""
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING - 10 * min(getattr(args, "verbose", 0), 2),
-                        format="%(levelname)s %(name)s: %(message)s")
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
-    return int(args.func(args))
+    """Parse, set up logging from ``-v``, and run the chosen sub-command's ``func`` (help
+    and exit status 2 when none was chosen), with the stop signals handled from the start
+    and every error turned into one line and an exit status
+    (:func:`~fingertip.cli.stopping.run_command`)."""
+    from .stopping import configure_logging, interrupted, run_command, stop_signals
+
+    with stop_signals():
+        configure_logging()
+        try:
+            args = parser.parse_args(argv)
+        except KeyboardInterrupt as e:
+            return interrupted(e)
+        verbose = getattr(args, "verbose", 0) or 0
+        configure_logging(verbose)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
+        return run_command(args.func, args, verbose)

@@ -15,8 +15,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
-from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -75,7 +75,9 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     protocol, export each to ONNX, time them with onnxruntime, and choose the fastest within
     the error bound. See docs/calibration.md."""
     from ..models.force.calibrate import CalibrationError, fit_calibration
+    from ..outputs import check_output
 
+    check_output(args.out, force=True, what="calibration folder", folder=True)
     data, summary = _load(args)
     if data is None:
         return 2
@@ -172,10 +174,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="fingertip", description="Force calibration.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     add_parsers(parser.add_subparsers(dest="command", metavar="COMMAND", required=True))
-    args = parser.parse_args(["calibrate", *(sys.argv[1:] if argv is None else argv)])
-    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
-                        format="%(levelname)s %(name)s: %(message)s")
-    return int(args.func(args))
+    return dispatch(parser, ["calibrate", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

@@ -15,11 +15,35 @@ log = logging.getLogger("fingertip")
 
 
 def _rdt_address(text: str) -> tuple[str, int]:
-    host, _, port = text.rpartition(":") if ":" in text else (text, "", "")
+    """``HOST``, ``HOST:PORT``, ``[IPv6]``, ``[IPv6]:PORT`` or a bare IPv6 address -> (host,
+    port); the port 1-65535 (default 49152) and the host must resolve."""
+    import socket
+
+    host, port = text, ""
+    if text.startswith("["):
+        host, bracket, rest = text[1:].partition("]")
+        if not bracket:
+            raise argparse.ArgumentTypeError(f"{text!r}: no closing ']': give [IPv6]:PORT")
+        if rest and not rest.startswith(":"):
+            raise argparse.ArgumentTypeError(f"{text!r}: give [IPv6]:PORT")
+        port = rest[1:]
+    elif text.count(":") == 1:
+        host, port = text.split(":")
+    if not host:
+        raise argparse.ArgumentTypeError(f"{text!r}: no host: give HOST or HOST:PORT")
     try:
-        return host, int(port) if port else 49152
+        port_n = int(port) if port else 49152
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: give HOST or HOST:PORT") from None
+        raise argparse.ArgumentTypeError(f"{text!r}: the port must be a number 1-65535, "
+                                         f"not {port!r}") from None
+    if not 1 <= port_n <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r}: the port must be 1-65535, not {port_n}")
+    try:
+        socket.getaddrinfo(host, port_n, type=socket.SOCK_DGRAM)
+    except (OSError, UnicodeError) as e:
+        raise argparse.ArgumentTypeError(f"{host!r}: unknown host "
+                                         f"({getattr(e, 'strerror', None) or e})") from None
+    return host, port_n
 
 
 def _cmd_record(args: argparse.Namespace) -> int:

@@ -60,6 +60,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
 
+    from ..outputs import check_output
+
+    # the report (replaced run after run) and the picture: never a folder, FIFO or device
+    check_output(args.report, force=True, what="report")
+    if args.plot:
+        check_output(args.plot, force=True, what="picture")
     if args.fault and not args.virtual:
         log.error("--fault needs --virtual (faults are simulated)")
         return 2

@@ -16,8 +16,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from .argtypes import dispatch, number
 from ..badfile import FILE_ERRORS, reports_bad_files
-from .argtypes import number
 
 if TYPE_CHECKING:
     from ..models.vibration.features import FeatureConfig
@@ -87,7 +87,16 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               augment=AugmentConfig(copies=args.augment),
                               cnn_budget=args.cnn_budget)
 
+    _check_out(args.out)
     return _run_training(train, material_summary_lines, args.json)
+
+
+def _check_out(out: str) -> None:
+    """The trainers' output folder: created, or an existing folder (their files in it are
+    replaced); never a file, a FIFO or a device."""
+    from ..outputs import check_output
+
+    check_output(out, force=True, what="model folder", folder=True)
 
 
 def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
@@ -127,6 +136,7 @@ def _cmd_train_shake(args: argparse.Namespace) -> int:
                            rate_hint=args.rate_hint, max_hz=args.max_hz,
                            cnn_epochs=args.cnn_epochs, cnn_max_seconds=args.cnn_max_seconds)
 
+    _check_out(args.out)
     return _run_training(train, shake_summary_lines, args.json)
 
 
@@ -183,7 +193,10 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         print("no prediction (the audio ended before one window)")
     else:
         clipped = sum(p.clipped for p in preds)
-        print(f"vote: {vote} ({100 * shares[vote]:.0f} % of {len(preds)} predictions)"
+        share = (f"{100 * shares[vote]:.0f} % of {len(preds)} predictions" if vote in shares
+                 else f"farther from every class than the model's threshold; "
+                      f"{len(preds)} predictions")
+        print(f"vote: {vote} ({share})"
               + (f"; {clipped} window(s) clipped" if clipped else ""))
     return 0
 
@@ -371,9 +384,7 @@ def add_parsers(sub) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="fingertip-classifiers")
     add_parsers(p.add_subparsers(dest="command", metavar="COMMAND", required=True))
-    args = p.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    return int(args.func(args))
+    return dispatch(p, argv)
 
 
 if __name__ == "__main__":

@@ -11,12 +11,14 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from ..badfile import check_input
 from ..device import Fingertip, FingertipError
 from ..device.health import link_text
 from ..flash import FlashError, flash
 from ..hand_args import add_hand_args, hand_spec_from_args
 from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
 from ..transport import DeviceNotFound, TransportError, list_ports
+from .argtypes import channel_list, number
 
 log = logging.getLogger("fingertip")
 
@@ -25,6 +27,8 @@ def _cmd_decode(args: argparse.Namespace) -> int:
     """Decode a file of raw wire bytes (a capture of the serial stream)."""
     path = Path(args.file)
     try:
+        if args.file != "-":
+            check_input(path, "capture of wire bytes")  # a FIFO would block for ever
         data = path.read_bytes() if args.file != "-" else sys.stdin.buffer.read()
     except OSError as e:
         log.error("cannot read %s: %s", path, e.strerror or e)
@@ -138,8 +142,7 @@ def _cmd_info(args: argparse.Namespace) -> int:
 def _cmd_tare(args: argparse.Namespace) -> int:
     """Average readings on the device and subtract them from then on."""
     with _open(args) as ft:
-        chans = [int(c) for c in args.channels.split(",")] if args.channels else None
-        offsets = ft.tare(chans, samples=args.samples)
+        offsets = ft.tare(args.channels, samples=args.samples)
         print("tare offsets: " + ", ".join(map(str, offsets)))
     return 0
 
@@ -239,8 +242,10 @@ def add_parsers(sub) -> None:
     t = sub.add_parser("tare", help="zero the channels on the device",
                        description=_cmd_tare.__doc__)
     _add_device_args(t)
-    t.add_argument("--samples", type=int, default=16, help="readings to average (1-256)")
-    t.add_argument("--channels", help="comma-separated channel numbers (default: all)")
+    t.add_argument("--samples", type=number(int, 1, 256), default=16,
+                   help="readings to average (1-256)")
+    t.add_argument("--channels", type=channel_list,
+                   help="comma-separated channel numbers (default: all)")
     t.set_defaults(func=_cmd_tare)
 
     st = sub.add_parser("stream", help="show the live frame stream",
@@ -250,9 +255,11 @@ def add_parsers(sub) -> None:
     st.add_argument("--duration", type=float, help="stop after S seconds")
     st.add_argument("--json", action="store_true", help="one JSON object per frame")
     st.add_argument("--rate", type=int, choices=(10, 80), help="the chips' rate (RATE pin)")
-    st.add_argument("--decimation", type=int, help="keep every n-th conversion")
+    st.add_argument("--decimation", type=number(int, 1, 255),
+                    help="keep every n-th conversion (1-255)")
     st.add_argument("--gain", type=int, choices=(128, 64, 32))
-    st.add_argument("--tare", type=int, metavar="N", help="tare with N samples first")
+    st.add_argument("--tare", type=number(int, 1, 256), metavar="N",
+                    help="tare with N samples (1-256) first")
     st.add_argument("--plot", action="store_true", help="a live plot in a window")
     st.add_argument("--plot-png", metavar="FILE",
                     help="a live plot written to FILE every second (no screen needed)")

@@ -44,7 +44,10 @@ def _say(line: str) -> None:
 def _record_from(args: argparse.Namespace) -> int:
     """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
     from ..network.record_from import NetworkStartError, record_network
+    from ..outputs import check_output
     from ..record.stats import RecorderError
+
+    check_output(args.output, force=args.force, what="recording")  # no FIFO, no overwrite
 
     try:
         r = record_network(args.from_net, args.name, args.output, duration=args.duration,
@@ -84,6 +87,10 @@ def _cmd_publish(args: argparse.Namespace) -> int:
     from ..record.recorder import Recorder, RecorderError
     from ..transport import DeviceNotFound, TransportError
 
+    if args.record:
+        from ..outputs import check_output
+
+        check_output(args.record, force=args.force, what="recording")
     try:
         hand = hand_spec_from_args(args)
         if (why := hand_conflict(args, hand)) is not None:

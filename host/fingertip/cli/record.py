@@ -17,6 +17,7 @@ from functools import partial
 from pathlib import Path
 
 from ..badfile import reports_bad_files
+from ..errors import exit_code
 from ..hand_args import add_hand_args, hand_spec_from_args
 from .argtypes import dispatch, number
 
@@ -85,7 +86,8 @@ def _cmd_record(args: argparse.Namespace) -> int:
         # An ONNX model is read here, before any device is opened, so a bad file is
         # refused at once; it is checked against the fingertip once that is open.
         force_model = load_force_model(args.force_model) if args.force_model else None
-        check_output(out, args.force)
+        check_output(out, args.force, inputs=[f for f in (args.audio_file, args.force_model)
+                                              if f and Path(f).exists()])
         spec = hand_spec_from_args(args)
         if spec is not None and (args.audio is not None or args.audio_file):
             raise ValueError("a hand's microphones are given with --hand-audio")
@@ -200,7 +202,7 @@ def _cmd_export(args: argparse.Namespace) -> int:
     from ..record.reader import RecordingError
 
     try:
-        res = export(args.file, args.output)
+        res = export(args.file, args.output, overwrite=args.force)
     except (RecordingError, ExportError) as e:
         log.error("%s", e)
         return 2
@@ -229,10 +231,9 @@ def _cmd_repair(args: argparse.Namespace) -> int:
 
     try:
         res = repair(args.file, args.output, overwrite=args.force)
-    except FileExistsError as e:
-        log.error("%s", e)
-        return 2
     except OSError as e:
+        if exit_code(e) == 2:  # the user's path: no such folder, no permission
+            raise
         log.error("cannot write %s: %s", args.output or "the copy", e.strerror or e)
         return 1
     if args.json:
@@ -315,7 +316,10 @@ def add_parsers(sub) -> None:
                        description=_cmd_export.__doc__)
     e.add_argument("file", metavar="FILE.mcap", help="a recording")
     e.add_argument("-o", "--output", required=True, metavar="DIR",
-                   help="folder for the files (created if needed)")
+                   help="folder for the files (created if needed; must be empty)")
+    e.add_argument("--force", action="store_true",
+                   help="write into a folder that is not empty (files of the same names "
+                        "are replaced)")
     e.set_defaults(func=_cmd_export)
 
     rp = sub.add_parser("repair", help="make a complete, indexed copy of a recording cut "

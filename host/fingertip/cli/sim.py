@@ -14,9 +14,9 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
 from ..sim.device.faults import FAULTS
-from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -202,10 +202,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     add_parsers(parser.add_subparsers(dest="sim_command", metavar="SIM_COMMAND",
                                       required=True))
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2),
-                        format="%(levelname)s %(name)s: %(message)s")
-    return int(args.func(args))
+    return dispatch(parser, argv)
 
 
 if __name__ == "__main__":

@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import itertools
 import logging
+import numbers
 import threading
 import time
 from collections import deque
 from dataclasses import dataclass, field
 
+from ..errors import BadArgumentError, BadArgumentTypeError
 from ..protocol import (
     INT24_MAX, INT24_MIN, MAX_CHANNELS, VALID_GAINS, VALID_RATES, Ack, Command, ForeignInfo,
     GetInfo, GetStats, Info, Nack, Ping, ProtocolVersionError, ResetCounters, SetGain,
@@ -108,7 +110,7 @@ class DeviceCommands:
     def set_rate(self, rate_sps: int, decimation: int = 1) -> None:
         """Tell the device its chips' rate (10 or 80 SPS) and keep every n-th conversion."""
         if rate_sps not in VALID_RATES:
-            raise ValueError(f"rate must be one of {', '.join(map(str, VALID_RATES))} SPS "
+            raise BadArgumentError(f"rate must be one of {', '.join(map(str, VALID_RATES))} SPS "
                              f"(the HX711's RATE pin), not {rate_sps!r}")
         decimation = check_int("decimation", decimation, 1, 255)
         self._command(SetRate(0, rate_sps, decimation))
@@ -116,7 +118,7 @@ class DeviceCommands:
 
     def set_gain(self, gain: int) -> None:
         if gain not in VALID_GAINS:
-            raise ValueError(f"gain must be one of {', '.join(map(str, VALID_GAINS))}, "
+            raise BadArgumentError(f"gain must be one of {', '.join(map(str, VALID_GAINS))}, "
                              f"not {gain!r}")
         self._command(SetGain(0, gain))
         self.settings.gain = gain
@@ -142,13 +144,20 @@ class DeviceCommands:
         elif isinstance(channels, int):
             mask = check_int("tare channel mask", channels, 1, 0xFFFF)  # the device judges
         else:
+            if isinstance(channels, str | bytes) or not hasattr(channels, "__iter__"):
+                raise BadArgumentTypeError(f"tare channels must be a list of channel numbers "
+                                           f"(0..{n - 1}), a bit mask or None, not "
+                                           f"{channels!r}")
             mask = 0
             for c in channels:
+                if isinstance(c, bool) or not isinstance(c, numbers.Integral):
+                    raise BadArgumentTypeError(f"tare channels are integers 0..{n - 1}, not "
+                                               f"{c!r}")
                 if not 0 <= c < n:
-                    raise ValueError(f"channel {c} does not exist (this device has {n})")
+                    raise BadArgumentError(f"channel {c} does not exist (this device has {n})")
                 mask |= 1 << c
             if not mask:
-                raise ValueError("tare needs at least one channel (an empty list was given)")
+                raise BadArgumentError("tare needs at least one channel (an empty list was given)")
         s = self.settings
         wait = samples * s.decimation / s.rate_sps * 1.6 + 0.5
         self._command(Tare(0, mask, samples), timeout=wait, retries=0)
@@ -159,7 +168,7 @@ class DeviceCommands:
     def set_tare_offsets(self, offsets: list[int] | tuple[int, ...]) -> None:
         """Put known offsets (one per channel) back on the device."""
         if len(offsets) != self.channels:
-            raise ValueError(f"need {self.channels} offsets, got {len(offsets)}")
+            raise BadArgumentError(f"need {self.channels} offsets, got {len(offsets)}")
         offsets = tuple(check_int("a tare offset", v, INT24_MIN, INT24_MAX) for v in offsets)
         padded = tuple(offsets) + (0,) * (MAX_CHANNELS - len(offsets))
         self._command(SetTareOffsets(0, (1 << len(offsets)) - 1, padded))

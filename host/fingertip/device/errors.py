@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import numbers
 
+from ..errors import BadArgumentError, BadArgumentTypeError, DeviceError
 from ..protocol import MAX_TARE_SAMPLES, ErrorCode
 
 
-class FingertipError(RuntimeError):
-    """Base class of the errors a :class:`Fingertip` raises from its commands."""
+class FingertipError(DeviceError):
+    """Base class of the errors a :class:`Fingertip` raises from its commands (a
+    :class:`~fingertip.errors.DeviceError`, so a ``RuntimeError``). Exit status 2 at the
+    command line: the port or device the user named cannot serve the command."""
+
+    exit_code = 2
 
 
 class CommandFailed(FingertipError):
@@ -35,10 +40,10 @@ def check_int(name: str, value: object, lo: int, hi: int) -> int:
     """``value`` as an int if it is an integer in lo..hi, else a ValueError (TypeError for
     a non-integer) that names the allowed range."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise TypeError(f"{name} must be an integer in {lo}..{hi}, not {value!r}")
+        raise BadArgumentTypeError(f"{name} must be an integer in {lo}..{hi}, not {value!r}")
     v = int(value)  # type: ignore[arg-type]
     if not lo <= v <= hi:
-        raise ValueError(f"{name} must be in {lo}..{hi}, not {v}")
+        raise BadArgumentError(f"{name} must be in {lo}..{hi}, not {v}")
     return v
 
 

@@ -22,6 +22,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterator
 
+from ..errors import BadArgumentError
 from ..protocol import (
     Ack, ForeignInfo, GetInfo, GetStats, Info, Log, Nack, Sample, Stats, StreamDecoder,
 )
@@ -68,14 +69,14 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
                  command_timeout: float = 0.5, retries: int = 2, open_timeout: float = 4.0,
                  name: str | None = None, reader: SharedReader | None = None) -> None:
         if (port is None) == (serial_number is None):
-            raise ValueError("give exactly one of port or serial_number")
+            raise BadArgumentError("give exactly one of port or serial_number")
         check_int("queue_size", queue_size, 0, 1 << 24)
         check_int("retries", retries, 0, 100)
         if baudrate is not None:
             check_int("baudrate", baudrate, 1, 10_000_000)
         for what, v in (("command_timeout", command_timeout), ("open_timeout", open_timeout)):
             if not (isinstance(v, int | float) and 0 < v < float("inf")):
-                raise ValueError(f"{what} must be a positive number of seconds, not {v!r}")
+                raise BadArgumentError(f"{what} must be a positive number of seconds, not {v!r}")
         self._port_arg = port
         self.serial_number = serial_number
         self._rates = (baudrate,) if baudrate else DEVICE_RATES
@@ -248,7 +249,7 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
         a timeout, so that a loop cannot spin on a dead device.
         """
         if timeout is not None and not timeout >= 0:
-            raise ValueError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
+            raise BadArgumentError(f"timeout must be >= 0 seconds (or None), not {timeout!r}")
         if self._queue is None:
             raise self._no_queue()
         with self._cond:

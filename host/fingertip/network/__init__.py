@@ -11,6 +11,8 @@ The transports' libraries are optional extras (``fingertip[ros]``, ``fingertip[z
 from __future__ import annotations
 
 import importlib
+
+from ..errors import Error
 from types import ModuleType
 
 TRANSPORTS = ("dds", "zenoh", "lsl")
@@ -20,8 +22,11 @@ EXTRAS = {"cyclonedds": "ros", "zenoh": "zenoh", "pylsl": "lsl", "rosbags": "ros
 """Python module -> the extra of ``fingertip`` that installs it."""
 
 
-class ExtraMissing(ImportError):
-    """An optional dependency is not installed (the message names the extra)."""
+class ExtraMissing(Error, ImportError):
+    """An optional dependency is not installed (the message names the extra; exit status
+    2: the user's installation)."""
+
+    exit_code = 2
 
 
 def require(module: str, what: str) -> ModuleType:

@@ -32,6 +32,7 @@ from xml.sax.saxutils import escape
 from . import require
 from .ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE, dds_type_name, idl_struct, user_data
 from .trigger import ServiceStats, TriggerServer, trigger_response_cdr
+from ..errors import NetworkError
 
 log = logging.getLogger(__name__)
 
@@ -58,8 +59,9 @@ anything larger than this is refused without being parsed."""
 _REQ_ID = {b"\x00\x01": struct.Struct("<Qq"), b"\x00\x00": struct.Struct(">Qq")}
 
 
-class DdsError(RuntimeError):
-    """DDS could not start (bad domain id, configuration...)."""
+class DdsError(NetworkError):
+    """DDS could not start (bad domain id, configuration...): a
+    :class:`~fingertip.errors.NetworkError`, a RuntimeError."""
 
 
 def ros_topic(topic: str) -> str:

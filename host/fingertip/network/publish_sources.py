@@ -45,7 +45,7 @@ def publish_names(name: str | None, n: int) -> list[str]:
     or a name is wrong."""
     from ..record.schemas import check_name
 
-    if name:
+    if name is not None:  # an empty --name is refused by check_name, not taken as none
         names = [s.strip() for s in name.split(",")]
     else:
         names = ["fingertip"] if n == 1 else [f"finger{i}" for i in range(n)]

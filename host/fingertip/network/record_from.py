@@ -15,6 +15,7 @@ from ..record.schemas import check_name
 from . import require
 from .receive import NetworkRecorder
 from .stopper import Stopper
+from ..errors import NetworkError
 from .waiting import Silence
 
 log = logging.getLogger("fingertip")
@@ -23,8 +24,11 @@ SOURCE_MODULES = {"dds": "cyclonedds", "zenoh": "zenoh", "lsl": "pylsl"}
 """--from -> the module its extra installs."""
 
 
-class NetworkStartError(RuntimeError):
-    """The network side (DDS, Zenoh, LSL) could not start, for example with bad settings."""
+class NetworkStartError(NetworkError):
+    """The network side (DDS, Zenoh, LSL) could not start, for example with bad settings
+    (exit status 2: the settings the user gave)."""
+
+    exit_code = 2
 
 
 @dataclass

@@ -146,7 +146,11 @@ class ForeignInfo:
 
 
 class ProtocolVersionError(RuntimeError):
-    """The device speaks a major protocol version this host does not."""
+    """The device speaks a major protocol version this host does not. Exit status 2 at the
+    command line (flash or upgrade); the codec sits beside :mod:`fingertip.errors` (rank 0),
+    so it states its exit status instead of subclassing ``DeviceError``."""
+
+    exit_code = 2
 
 
 def require_compatible(info: Info | ForeignInfo) -> Info:

@@ -16,6 +16,7 @@ Times: ``unix_time`` is the stamp (seconds since 1970), ``host_time`` the record
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import os
 from dataclasses import dataclass, field
@@ -25,14 +26,17 @@ from typing import Any
 import numpy as np
 import soundfile as sf
 
+from ..badfile import BadFileError
+from ..errors import Error
+from ..outputs import check_output
 from . import schemas as S
 from .reader import Recording
 
 _SUBTYPES = {"int16": ("PCM_16",), "int32": ("PCM_32", "PCM_24"), "float32": ("FLOAT",)}
 
 
-class ExportError(RuntimeError):
-    """The output folder cannot be written."""
+class ExportError(Error, RuntimeError):
+    """The output folder cannot be written (a failure at run time: exit status 1)."""
 
 
 @dataclass
@@ -140,11 +144,16 @@ class _AudioWav:
         self.cf.close()
 
 
-def export(path: str | os.PathLike, out_dir: str | os.PathLike) -> ExportResult:
+def export(path: str | os.PathLike, out_dir: str | os.PathLike, *,
+           overwrite: bool = True) -> ExportResult:
     """Write the CSV and WAV files of the recording at ``path`` into ``out_dir`` (created
-    if needed; existing files of the same names are replaced)."""
+    if needed). A folder that is not empty is refused unless ``overwrite`` (then files of
+    the same names are replaced; the command line's ``--force``); a recording of which no
+    message can be read is refused (BadFileError) and leaves no folder behind."""
     rec = Recording(path)
-    out = Path(out_dir)
+    out = check_output(out_dir, force=overwrite, inputs=[path], what="export folder",
+                       folder=True)
+    created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / ".fingertip-export-probe"
@@ -204,6 +213,12 @@ def export(path: str | os.PathLike, out_dir: str | os.PathLike) -> ExportResult:
             a.close()
         if events_f is not None:
             events_f.close()
+    if not res.files:
+        if created:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise BadFileError(f"{path}: no fingertip message could be read (a damaged file, or "
+                           "not a fingertip recording): nothing exported", path)
     res.frames = {n: d.rows for n, d in devices.items()}
     res.audio_frames = {n: a.frames for n, a in wavs.items()}
     res.audio_gap_frames = {n: a.gap_frames for n, a in wavs.items()}

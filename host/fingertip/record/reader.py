@@ -29,6 +29,8 @@ from mcap.reader import SeekingReader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema
 from mcap.stream_reader import CRCValidationError, StreamReader
 
+from ..badfile import special_kind, stat_or_none
+from ..errors import Error
 from . import schemas as S
 from .writer import METADATA_NAME, SUMMARY_METADATA_NAME
 from .timebase import TimeBase
@@ -36,8 +38,11 @@ from .timebase import TimeBase
 MAGIC = b"\x89MCAP0\r\n"
 
 
-class RecordingError(RuntimeError):
-    """The file is missing, unreadable, or not a fingertip MCAP recording."""
+class RecordingError(Error, RuntimeError):
+    """The file is missing, unreadable, or not a fingertip MCAP recording (the user's
+    input: exit status 2)."""
+
+    exit_code = 2
 
 
 @dataclass(frozen=True, slots=True)
@@ -74,6 +79,9 @@ class Recording:
             raise RecordingError(f"{self.path}: no such file")
         if self.path.is_dir():
             raise RecordingError(f"{self.path}: is a directory, not an MCAP recording")
+        if (st := stat_or_none(self.path)) is not None and special_kind(st.st_mode):
+            raise RecordingError(f"{self.path}: is {special_kind(st.st_mode)}, not an MCAP "
+                                 "recording")  # open() on a FIFO would wait for ever
         try:
             with open(self.path, "rb") as f:
                 head = f.read(len(MAGIC))

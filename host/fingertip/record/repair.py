@@ -27,6 +27,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from ..badfile import BadFileError, require_file
+from ..outputs import atomic_output, check_output
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_FOOTER, OP_CHUNK = 0x02, 0x06
@@ -180,13 +181,14 @@ def repair(path: str | os.PathLike, output: str | os.PathLike | None = None, *,
            overwrite: bool = False, chunk_size: int = 1 << 20) -> RepairResult:
     """Write a complete, indexed copy of the MCAP file ``path`` to ``output`` (default
     :func:`default_output`). Raises :class:`~fingertip.badfile.BadFileError` when ``path``
-    is not an MCAP file, FileExistsError when ``output`` exists and not ``overwrite``."""
+    is not an MCAP file, :class:`~fingertip.outputs.OutputExists` (a FileExistsError) when
+    ``output`` exists and not ``overwrite``, :class:`~fingertip.errors.OutputRefused` when it
+    is a folder, a FIFO or a device, BadFileError when it is the input."""
     src = require_file(path, "MCAP recording")
     out = Path(output) if output is not None else default_output(src)
     if out.resolve() == src.resolve():
         raise BadFileError(f"{out}: the copy must not replace the file being repaired", out)
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out} already exists (choose another name, or --force)")
+    check_output(out, force=overwrite, inputs=[src], what="repaired copy")
     size = src.stat().st_size
     with open(src, "rb") as f:
         if f.read(len(MAGIC)) != MAGIC:
@@ -199,13 +201,10 @@ def repair(path: str | os.PathLike, output: str | os.PathLike | None = None, *,
         f.seek(0)
         spare = _summary_definitions(f) if complete else {}
         f.seek(len(MAGIC))
-        tmp = out.with_name(f".{out.name}.part")
-        try:
+        # A unique temporary file (never a name derived from the output's: the input may
+        # be called just that), renamed over the output only if that is a regular file.
+        with atomic_output(out) as tmp:
             _copy(f, size, tmp, result, chunk_size, compression, spare)
-            os.replace(tmp, out)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
     return result
 
 

@@ -11,8 +11,11 @@ tests check that both produce and read exactly the same bytes as mcap-ros2-suppo
 """
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import dataclass
+
+from ..errors import BadArgumentError
 
 SEP = "=" * 80
 
@@ -128,9 +131,11 @@ def split_topic(topic_name: str) -> tuple[str, str] | None:
 
 def check_name(name: str) -> str:
     """A fingertip name must make a valid ROS 2 topic segment."""
-    if not name or not (name[0].isalpha()) or not all(c.isalnum() or c == "_" for c in name):
-        raise ValueError(f"name {name!r} cannot be part of a ROS 2 topic: use letters, digits "
-                         "and underscores, starting with a letter (e.g. index, thumb_1)")
+    # ASCII only: str.isalpha() takes "í", which DDS refuses (BAD_PARAMETER) deep inside
+    if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
+        raise BadArgumentError(f"name {name!r} cannot be part of a ROS 2 topic: use ASCII "
+                               "letters, digits and underscores, starting with a letter "
+                               "(e.g. index, thumb_1)")
     return name
 
 

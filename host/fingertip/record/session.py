@@ -15,19 +15,24 @@ import logging
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from ..badfile import check_input
+from ..errors import Error
 
 log = logging.getLogger(__name__)
 
 Say = Callable[[str], None]
 
 
-class SessionError(Exception):
+class SessionError(Error):
     """A user error found before recording (the output path, a refused force model): one
-    line."""
+    line, exit status 2."""
+
+    exit_code = 2
 
 
 @dataclass(frozen=True)
@@ -58,14 +63,16 @@ class RecordSettings:
                 + (f" for {self.duration:g} s" if self.duration else " (Ctrl-C to stop)"))
 
 
-def check_output(path: Path, overwrite: bool) -> None:
-    """Refuse a folder, or an existing file unless ``overwrite`` (before any device opens)."""
-    if path.is_dir():
-        raise SessionError(f"{path} is a directory: give a file name such as "
-                           f"{path / 'run.mcap'}")
-    if path.exists() and path.is_file() and not overwrite:
-        raise SessionError(f"{path} already exists (choose another name, or add --force to "
-                           "replace it)")
+def check_output(path: Path, overwrite: bool, inputs: Iterable[str | Path] = ()) -> None:
+    """Refuse a folder, a FIFO, a device, one of ``inputs``, or an existing file unless
+    ``overwrite`` (before any device opens): :func:`fingertip.outputs.check_output`."""
+    from ..errors import OutputRefused
+    from ..outputs import check_output as check
+
+    try:
+        check(path, force=overwrite, inputs=inputs, what="recording")
+    except OutputRefused as e:
+        raise SessionError(str(e)) from e
 
 
 def open_audio(device: str | None, file: str | None, *, rate: float, channels: int,
@@ -78,8 +85,34 @@ def open_audio(device: str | None, file: str | None, *, rate: float, channels: i
         dev: int | str = int(device) if device.isdigit() else device
         return SoundDeviceSource(dev, rate, channels=channels, dtype=dtype)
     if file:
-        return FileSource(file, realtime=True)
+        check_input(file, "a WAV or FLAC file")  # a FIFO would block open() for ever
+        src = FileSource(file, realtime=True)
+        warn_if_unusable(src)
+        return src
     return None
+
+
+WARN_READ_LIMIT = 20_000_000
+"""Samples of an --audio-file read ahead to check it (beyond: not checked, only streamed)."""
+
+
+def warn_if_unusable(src) -> None:
+    """Warn when the audio file of ``src`` (a FileSource) is silent, constant, non-finite or
+    clipped (:func:`~fingertip.audio.sanity.signal_problem`): it is recorded all the same,
+    as it is what was asked for."""
+    import soundfile as sf
+
+    from ..audio.sanity import signal_problem
+
+    if src.frames_total * src.channels > WARN_READ_LIMIT:
+        return
+    try:
+        x, _ = sf.read(str(src.path), dtype="float64", always_2d=True)
+    except (sf.SoundFileError, RuntimeError, OSError):
+        return  # the source reports its own read errors when it plays
+    if (problem := signal_problem(x, 1.0)) is not None:
+        log.warning("%s: %s: recorded as it is, but check the file", src.path,
+                    problem)
 
 
 @contextlib.contextmanager

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .samples import ReferenceError, ReferenceSamples
+from .samples import ReferenceError, ReferenceSamples, unusable_text
 
 log = logging.getLogger(__name__)
 
@@ -109,6 +109,8 @@ class RdtClient:
                  counts_per_force: float = DEFAULT_COUNTS_PER_UNIT,
                  counts_per_torque: float = DEFAULT_COUNTS_PER_UNIT,
                  first_packet_timeout: float = 2.0) -> None:
+        if not (isinstance(port, int) and 1 <= port <= 65535):
+            raise ReferenceError(f"RDT sensor {host}:{port}: the port must be 1-65535")
         self.host, self.port = host, port
         self.name = f"rdt://{host}:{port}"
         self.cpf, self.cpt = float(counts_per_force), float(counts_per_torque)
@@ -121,19 +123,31 @@ class RdtClient:
                          "foreign": 0}
 
     def start(self) -> None:
-        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        s.settimeout(0.1)
-        s.connect((self.host, self.port))
+        s = None
+        try:
+            fam, kind, proto, _, addr = socket.getaddrinfo(self.host, self.port,
+                                                           type=socket.SOCK_DGRAM)[0]
+            s = socket.socket(fam, kind, proto)
+            s.settimeout(0.1)
+            s.connect(addr)
+        except (OSError, OverflowError, UnicodeError) as e:  # gaierror: an unknown host
+            if s is not None:
+                s.close()
+            raise ReferenceError(f"RDT sensor {self.host}:{self.port}: cannot be reached "
+                                 f"({getattr(e, 'strerror', None) or e})") from e
         self._sock = s
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="rdt-client", daemon=True)
         self._thread.start()
         s.send(encode_request(CMD_START, 0))
         deadline = time.monotonic() + self.first_packet_timeout
-        while time.monotonic() < deadline and not self._rows:
+        while time.monotonic() < deadline and not any(r[3] == 0 for r in self._rows[-50:]):
             time.sleep(0.01)
-        if not self._rows:
+        if not any(r[3] == 0 for r in self._rows):
             self.stop()
+            if why := unusable_text(self.counters):
+                raise ReferenceError(f"no usable RDT packets from {self.host}:{self.port} "
+                                     f"within {self.first_packet_timeout:g} s{why}")
             raise ReferenceError(f"no RDT packets from {self.host}:{self.port} within "
                                  f"{self.first_packet_timeout:g} s: is the sensor's address "
                                  "right, RDT enabled on its web page, and UDP 49152 open?")

@@ -6,9 +6,15 @@ from typing import Protocol
 
 import numpy as np
 
+from ..errors import NetworkError
 
-class ReferenceError(ValueError):
-    """The reference cannot be used (no packets, never moves, wrong file...): one line."""
+
+class ReferenceError(NetworkError, ValueError):
+    """The reference cannot be used (no packets, never moves, wrong file, an address that
+    does not resolve...): one line; a :class:`~fingertip.errors.NetworkError` and a
+    ValueError; exit status 2 (the reference the user gave)."""
+
+    exit_code = 2
 
 
 @dataclass
@@ -32,7 +38,8 @@ class ReferenceSamples:
         """Raise :class:`ReferenceError` when there is nothing to calibrate against."""
         if len(self) < 10:
             raise ReferenceError(f"{self.source or 'the reference'}: only {len(self)} "
-                                 "samples arrived (is it streaming to this host?)")
+                                 "samples arrived" + (unusable_text(self.counters)
+                                 or " (is it streaming to this host?)"))
         mag = np.hypot(self.force[:, 0], self.force[:, 1])
         span = float(np.percentile(mag, 99) - np.percentile(mag, 1))
         if span < min_range_n:
@@ -58,3 +65,19 @@ class WrenchSource(Protocol):
     def start(self) -> None: ...
 
     def stop(self) -> ReferenceSamples: ...
+
+
+def unusable_text(counters: dict[str, int]) -> str:
+    """``"; 2000 packets arrived but ..."`` saying why packets that arrived were not used
+    (wrong size, the sensor's status bit set), or "" when none were refused."""
+    bad, status = counters.get("bad_size", 0), counters.get("status_errors", 0)
+    if not bad and not status:
+        return ""
+    parts = []
+    if bad:
+        parts.append(f"{bad} of the wrong size (not RDT records: is it an RDT sensor?)")
+    if status:
+        parts.append(f"{status} with the sensor's status bit set (the sensor reports an "
+                     "error: see its web page)")
+    total = counters.get("packets", 0) + bad
+    return f"; {total} packets arrived but were not used: " + ", ".join(parts)

@@ -73,9 +73,10 @@ class LivePlot:
         pad = max(self.min_pad, 0.05 * (hi - lo))
         self.ax.set_ylim(lo - pad, hi + pad)
         if self.png is not None:
-            tmp = self.png.with_suffix(".tmp.png")
-            self.fig.savefig(tmp, dpi=90)
-            tmp.replace(self.png)  # readers never see half a file
+            from ..outputs import atomic_output
+
+            with atomic_output(self.png) as tmp:  # readers never see half a file
+                self.fig.savefig(tmp, dpi=90, format="png")
         else:
             self.fig.canvas.draw_idle()
             self.plt.pause(0.001)

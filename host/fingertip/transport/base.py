@@ -3,9 +3,15 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
+from ..errors import DeviceError
 
-class TransportError(IOError):
-    """The transport failed (port vanished, permission denied, ...)."""
+
+class TransportError(DeviceError, OSError):
+    """The transport failed (port vanished, permission denied, ...): a
+    :class:`~fingertip.errors.DeviceError` and an ``OSError``; exit status 2 (the port the
+    user named)."""
+
+    exit_code = 2
 
 
 class TransportClosed(TransportError):

@@ -5,9 +5,13 @@ from dataclasses import dataclass
 
 from serial.tools import list_ports as _list_ports
 
+from ..errors import DeviceError
 
-class DeviceNotFound(LookupError):
-    """No port, or more than one, matched what was asked for."""
+
+class DeviceNotFound(DeviceError, LookupError):
+    """No port, or more than one, matched what was asked for (the user's input: exit 2)."""
+
+    exit_code = 2
 
 
 @dataclass(frozen=True, slots=True)

@@ -224,13 +224,21 @@ def test_command_line(data, tmp_path, capsys, caplog):
 def test_bad_folders_and_csv_datasets(tmp_path):
     one = tmp_path / "one"
     (one / "a").mkdir(parents=True)
-    sf.write(one / "a" / "x.wav", np.zeros(8000), 8000)
+    noise = np.random.default_rng(1).normal(0, 0.1, (2, 8000))
+    sf.write(one / "a" / "x.wav", noise[0], 8000)
     with pytest.raises(DatasetError, match="need at least 2"):
         load_folder(one)
     (one / "b").mkdir()
-    sf.write(one / "b" / "y.wav", np.ones(8000) * 0.1, 8000)
+    sf.write(one / "b" / "y.wav", noise[1], 8000)
     with pytest.raises(DatasetError, match="nothing to test on"):
         train_material(one, tmp_path / "one_out")
+    # silent, constant, NaN and clipped recordings are refused, the file named (issue 28)
+    for x, why in ((np.zeros(8000), "silent"), (np.ones(8000) * 0.1, "constant"),
+                   (np.where(np.arange(8000) == 9, np.nan, noise[1]), "NaN"),
+                   (np.clip(noise[1] * 30, -1, 1), "clipped")):
+        sf.write(one / "b" / "y.wav", x, 8000, subtype="FLOAT")
+        with pytest.raises(DatasetError, match=f"y.wav.*{why}"):
+            load_folder(one)
     csv = tmp_path / "csv"
     rng = np.random.default_rng(0)
     t = np.arange(4000) / 4000

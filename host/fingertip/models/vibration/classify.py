@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...audio.sanity import signal_problem
 from ...badfile import BadFileError
 from .classifier.datasets import (
     Dataset,
@@ -275,6 +276,9 @@ class VibrationClassifier:
         that does not state its own)."""
         if not isinstance(rec, Recording):
             rec = read_recording(rec, rate)
+        if (problem := signal_problem(rec.samples, rec.full_scale)) is not None:
+            log.warning("%s: %s: its answers may mean little", rec.source or "the "
+                        "recording", problem)
         w = self.pipeline.windows(rec)
         if not len(w):
             raise FeatureError(f"{rec.source or 'the recording'} lasts {rec.duration:.3f} s: "

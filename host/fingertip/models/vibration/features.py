@@ -55,6 +55,8 @@ import scipy.fft
 from scipy.signal import resample_poly
 from scipy.signal.windows import hann
 
+from ..audio.sanity import clipped_fraction, clipped_mask  # noqa: F401  (public names here)
+from ..errors import BadFileError
 from .mains import remove_mains
 
 log = logging.getLogger(__name__)
@@ -79,8 +81,13 @@ AUDIO_EXTENSIONS = (".wav", ".flac")
 CSV_EXTENSIONS = (".csv", ".txt")
 
 
-class FeatureError(ValueError):
-    """A recording that cannot give features: unreadable, NaN/Inf, bad rate, too short."""
+class FeatureError(BadFileError):
+    """A recording that cannot give features: unreadable, NaN/Inf, bad rate, too short (a
+    :class:`~fingertip.errors.BadFileError`, so a ValueError)."""
+
+
+class NonFiniteSamples(FeatureError):
+    """A recording holding NaN or infinite samples."""
 
 
 # --- configuration ------------------------------------------------------------------------
@@ -246,43 +253,9 @@ def check_finite(x: np.ndarray, what: str = "the recording", rate: float | None 
         first = int(np.flatnonzero(bad)[0])
         n_nan = int(np.count_nonzero(np.isnan(x)))
         at = f" ({first / rate:.4f} s)" if rate else ""
-        raise FeatureError(f"{what} holds {n_nan} NaN and {int(bad.sum()) - n_nan} infinite "
+        raise NonFiniteSamples(f"{what} holds {n_nan} NaN and {int(bad.sum()) - n_nan} infinite "
                            f"sample(s), the first at sample {first}{at}: repair or cut it "
                            "(features of non-finite samples would be meaningless)")
-
-
-def clipped_mask(x: np.ndarray, full_scale: float | None = None, run: int = 3) -> np.ndarray:
-    """Which samples look clipped (bool, one per sample).
-
-    Samples in runs of ``run`` or more consecutive samples sitting at the recording's own
-    maximum or minimum (a clipped waveform flattens at its extremes; a sine's peak does not
-    repeat), plus, when the ``full_scale`` is known, every sample at it.
-    """
-    x = np.asarray(x)
-    n = len(x)
-    out = np.zeros(n, dtype=bool)
-    if n == 0:
-        return out
-    hi, lo = x.max(), x.min()
-    if hi == lo:
-        return out  # constant (silence): nothing clipped
-    at = (x >= hi) | (x <= lo)
-    edge = np.diff(np.concatenate(([0], at.view(np.int8), [0])))
-    starts, ends = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)
-    long = (ends - starts) >= run
-    mark = np.zeros(n + 1, dtype=np.int32)
-    np.add.at(mark, starts[long], 1)
-    np.add.at(mark, ends[long], -1)
-    out = np.cumsum(mark[:n]) > 0
-    if full_scale is not None:
-        out |= np.abs(x) >= full_scale * (1 - 2 ** -15)
-    return out
-
-
-def clipped_fraction(x: np.ndarray, full_scale: float | None = None, run: int = 3) -> float:
-    """Fraction of samples that look clipped (:func:`clipped_mask`)."""
-    n = len(x)
-    return float(np.count_nonzero(clipped_mask(x, full_scale, run)) / n) if n else 0.0
 
 
 def as_recording(x: np.ndarray, rate: float, source: str = "array",

@@ -13,6 +13,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from ...badfile import check_input
+from ...errors import Error
 from ..physics import (
     load,
     params_path,
@@ -22,12 +24,13 @@ GENERATOR = "fingertip sim dataset"
 META_FILE = "dataset.json"
 
 
-class DatasetError(RuntimeError):
-    """The dataset cannot be written. ``code``: 2 for a user error (bad argument, output
-    folder not empty or not writable), 1 when writing failed part-way (disk full...)."""
+class DatasetError(Error, RuntimeError):
+    """The dataset cannot be written. ``code`` (= ``exit_code``): 2 for a user error (bad
+    argument, output folder not empty or not writable), 1 when writing failed part-way (disk
+    full...)."""
 
     def __init__(self, message: str, code: int = 2) -> None:
-        super().__init__(message)
+        super().__init__(message, exit_code=code)
         self.code = code
 
 
@@ -150,9 +153,10 @@ def _remove_dataset(out: Path, meta: dict[str, Any]) -> None:
 
 
 def _write_meta(out: Path, meta: dict[str, Any]) -> None:
-    tmp = out / (META_FILE + ".tmp")
-    tmp.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
-    os.replace(tmp, out / META_FILE)
+    from ...outputs import atomic_output
+
+    with atomic_output(out / META_FILE) as tmp:
+        tmp.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
 
 
 @dataclass
@@ -178,6 +182,7 @@ def _load_params(params_file: str | os.PathLike | None):
     if params_file is None:
         return load(), None
     try:
+        check_input(params_file, "TOML parameter file")  # a FIFO would block for ever
         return load(params_file), str(params_file)
     except OSError as e:
         raise DatasetError(f"cannot read {params_file}: {e.strerror or e}") from e

@@ -94,7 +94,11 @@ def check_dataset(data: CalibrationData, *, min_rows: int = MIN_ROWS,
         msg = ("counts at zero force sit at " + ", ".join(f"{o:.0f}" for o in off)
                + ": the data look untared. The model expects the same offsets at run time: "
                  "tare the device (`fingertip tare`) before calibrating and before use")
-        if np.any(np.abs(off) > 0.1 * span) and msg not in data.warnings:
+        # The most relaxed zero-force readings: right after unloading, creep and hysteresis
+        # keep tared gauges tens of thousands of counts away from zero (the quick start's
+        # simulated sweep did), while an untared bridge never comes near zero at all.
+        rest = np.percentile(np.abs(x[zero]), 10, axis=0)
+        if np.any(rest > 0.1 * span) and msg not in data.warnings:
             data.warnings.append(msg)
     return {"rows": n, "rows_read": data.rows_read, "dropped": dict(data.dropped),
             "condition_number": cond, "direction_ratio": ratio,

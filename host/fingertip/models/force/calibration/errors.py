@@ -1,10 +1,15 @@
 """Why a calibration dataset is refused: one exception type per cause, each with a ``code``."""
 from __future__ import annotations
 
+from ...errors import Error
 
-class CalibrationError(ValueError):
+
+class CalibrationError(Error, ValueError):
     """The data cannot determine the force model. ``code`` names the reason (stable, for
-    scripts); the command line exits with status 2 for every one of them."""
+    scripts); the command line exits with status 2 for every one of them (a
+    :class:`~fingertip.errors.Error` and a ValueError)."""
+
+    exit_code = 2
 
     code = "calibration_error"
 

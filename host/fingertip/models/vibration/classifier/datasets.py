@@ -11,10 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ...audio.sanity import signal_problem
+from ...errors import BadFileError
 from ..features import (
     AUDIO_EXTENSIONS,
     CSV_EXTENSIONS,
     FeatureError,
+    NonFiniteSamples,
     Recording,
     read_recording,
 )
@@ -22,8 +25,10 @@ from ..features import (
 log = logging.getLogger(__name__)
 
 
-class DatasetError(ValueError):
-    """A training folder that cannot be used (layout, too few recordings, unreadable)."""
+class DatasetError(BadFileError):
+    """A training folder that cannot be used (layout, too few recordings, unreadable, a
+    silent, constant, non-finite or clipped recording): a
+    :class:`~fingertip.errors.BadFileError`, so a ValueError; exit status 2."""
 
 
 @dataclass
@@ -86,7 +91,9 @@ def load_folder(folder: str | os.PathLike, *, rate_hint: float | None = None,
     """Read every recording of a class-per-sub-folder dataset.
 
     ``rate_hint``: the sample rate of CSV files that do not state theirs. Unreadable files
-    (or NaN/Inf samples) are skipped with a warning when ``skip_bad``, else raise.
+    are skipped with a warning when ``skip_bad``, else raise; a silent, constant,
+    NaN/Inf or clipped recording (:func:`~fingertip.audio.sanity.signal_problem`) is refused
+    with a DatasetError naming it.
     """
     folder = Path(folder)
     classes, files = scan_folder(folder)
@@ -94,12 +101,17 @@ def load_folder(folder: str | os.PathLike, *, rate_hint: float | None = None,
     for i, (path, cls) in enumerate(files):
         try:
             rec = read_recording(path, rate_hint, channel)
+        except NonFiniteSamples as e:
+            raise DatasetError(f"{e}; refused for training: remove it from the folder") from e
         except FeatureError as e:
             if not skip_bad:
                 raise
             log.warning("skipped: %s", e)
             skipped.append(f"{path}: {e}")
             continue
+        if (problem := signal_problem(rec.samples, rec.full_scale)) is not None:
+            raise DatasetError(f"{path}: {problem}: refused for training (remove it from the "
+                               "folder or record it again)")
         if rec.clipped:
             log.warning("%s: %.2f %% of the samples look clipped", path,
                         100 * rec.clipped_fraction)

@@ -1,0 +1,189 @@
+"""The error vocabulary, the exit-status mapping, the output policy, the input sanity check and
+the stop signals (issue 28), tested directly."""
+from __future__ import annotations
+
+import errno
+import os
+import signal
+import stat
+
+import numpy as np
+import pytest
+
+from fingertip.audio.sanity import signal_problem
+from fingertip.badfile import BadFileError, check_input
+from fingertip.cli.stopping import Interrupted, run_command, stop_signals
+from fingertip.errors import (
+    BadArgumentError,
+    BadArgumentTypeError,
+    DeviceError,
+    Error,
+    ModelError,
+    NetworkError,
+    OutputRefused,
+    describe,
+    exit_code,
+)
+from fingertip.outputs import OutputExists, atomic_output, check_output, replace, temp_path
+
+
+@pytest.mark.parametrize(("e", "code"), [
+    (BadFileError("x.wav: empty"), 2),
+    (BadArgumentError("tare samples must be in 0..256, not 9999"), 2),
+    (BadArgumentTypeError("tare channels ..."), 2),
+    (OutputRefused("fifo: is a FIFO"), 2),
+    (DeviceError("lost"), 1),
+    (DeviceError("no such port", exit_code=2), 2),
+    (NetworkError("DDS failed"), 1),
+    (ModelError("diverged"), 1),
+    (KeyboardInterrupt(), 130),
+    (Interrupted("SIGTERM"), 130),
+    (FileNotFoundError(errno.ENOENT, "No such file", "a.mcap"), 2),
+    (OSError(errno.ENOSPC, "No space left on device"), 1),
+    (OSError(errno.EROFS, "Read-only file system"), 2),
+    (KeyError("unknown"), 1),
+    (RuntimeError("boom"), 1),
+])
+def test_every_exception_has_one_exit_status(e, code):
+    assert exit_code(e) == code
+
+
+def test_the_old_classes_are_of_the_vocabulary():
+    from fingertip.device import FingertipError
+    from fingertip.models.calibration.errors import CalibrationError
+    from fingertip.protocol import ProtocolVersionError
+    from fingertip.record.reader import RecordingError
+    from fingertip.reference import ReferenceError
+    from fingertip.transport import DeviceNotFound, TransportError
+
+    assert issubclass(FingertipError, DeviceError) and issubclass(FingertipError, RuntimeError)
+    assert issubclass(TransportError, DeviceError) and issubclass(TransportError, OSError)
+    assert issubclass(DeviceNotFound, LookupError) and exit_code(DeviceNotFound("x")) == 2
+    assert issubclass(ReferenceError, NetworkError) and issubclass(ReferenceError, ValueError)
+    assert issubclass(RecordingError, Error) and exit_code(RecordingError("x")) == 2
+    assert issubclass(CalibrationError, ValueError) and exit_code(CalibrationError("x")) == 2
+    assert exit_code(ProtocolVersionError("v2")) == 2  # rank 0: states its status
+
+
+def test_one_line_and_no_traceback_words():
+    assert describe(BadArgumentError("a\n  b")) == "a b"
+    assert describe(FileNotFoundError(errno.ENOENT, "No such file", "x.mcap")) == \
+        "x.mcap: No such file"
+    assert describe(KeyError("unknown")).startswith("internal error: KeyError: 'unknown'")
+    bug = describe(AttributeError("'NoneType' object has no attribute 'x'"))
+    assert bug.startswith("internal error: AttributeError") and "-v" in bug
+    assert describe(Interrupted("SIGHUP")).startswith("interrupted")
+
+
+def test_run_command_maps_and_logs_one_line(caplog):
+    def fails(_):
+        raise BadArgumentError("decimation must be in 1..255, not 0")
+
+    assert run_command(fails, None) == 2
+    errors = [r for r in caplog.records if r.levelname == "ERROR"]
+    assert len(errors) == 1 and "1..255" in errors[0].getMessage() and not errors[0].exc_info
+    caplog.clear()
+    assert run_command(fails, None, verbose=1) == 2
+    assert caplog.records[-1].exc_info  # -v shows where
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_stop_signals_raise_once_then_restore(signame):
+    sig = getattr(signal, signame)
+    before = signal.getsignal(sig)
+    with pytest.raises(Interrupted) as info, stop_signals():
+        os.kill(os.getpid(), sig)
+        for _ in range(100):  # the handler runs between bytecodes
+            pass
+    assert info.value.signame == signame
+    assert signal.getsignal(sig) == before
+
+
+def test_stop_signals_even_when_the_parent_ignored_sigint():
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)  # a background job of a script
+    try:
+        with pytest.raises(KeyboardInterrupt), stop_signals():
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(100):
+                pass
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_special_files_are_refused_before_open(tmp_path):
+    fifo = tmp_path / "f"
+    os.mkfifo(fifo)
+    with pytest.raises(BadFileError, match="FIFO"):
+        check_input(fifo)
+    with pytest.raises(BadFileError, match="device"):
+        check_input("/dev/null")
+    check_input(tmp_path / "missing")  # left for open() to name
+    for path in (fifo, "/dev/full"):
+        with pytest.raises(OutputRefused, match="FIFO|device"):
+            check_output(path, force=True)
+
+
+def test_outputs_exist_inputs_folders(tmp_path):
+    f = tmp_path / "a.mcap"
+    f.write_bytes(b"keep")
+    with pytest.raises(OutputExists, match="already exists.*--force"):
+        check_output(f)
+    with pytest.raises(FileExistsError):
+        check_output(f)
+    assert check_output(f, force=True) == f
+    with pytest.raises(OutputRefused, match="also an input"):
+        check_output(f, force=True, inputs=[f])
+    with pytest.raises(OutputRefused, match="is a directory"):
+        check_output(tmp_path)
+    with pytest.raises(OutputRefused, match="does not exist"):
+        check_output(tmp_path / "no" / "x.mcap")
+    with pytest.raises(OutputRefused, match="not a folder"):
+        check_output(f, folder=True, force=True)
+    with pytest.raises(OutputRefused, match="not empty"):
+        check_output(tmp_path, folder=True)
+    assert check_output(tmp_path, folder=True, force=True) == tmp_path
+    assert f.read_bytes() == b"keep"
+
+
+def test_temporary_files_are_unique_and_renamed_only_over_regular_files(tmp_path):
+    out = tmp_path / "run.mcap"
+    part = tmp_path / ".run.mcap.part"  # an input named as the old scheme named its temp
+    part.write_bytes(b"input")
+    a, b = temp_path(out), temp_path(out)
+    assert a != b and part not in (a, b) and a.parent == tmp_path
+    assert stat.S_IMODE(a.stat().st_mode) & 0o044  # not mkstemp's 0600 once renamed
+    with atomic_output(out) as tmp:
+        tmp.write_bytes(b"new")
+    assert out.read_bytes() == b"new" and part.read_bytes() == b"input"
+    with pytest.raises(RuntimeError), atomic_output(out) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("failed while writing")
+    assert out.read_bytes() == b"new"
+    with pytest.raises(OutputRefused, match="not a regular file"):
+        replace(a, "/dev/null")
+    assert not a.exists() and stat.S_ISCHR(os.stat("/dev/null").st_mode)
+    b.unlink()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".run.mcap.part", "run.mcap"]
+
+
+@pytest.mark.parametrize(("x", "full_scale", "says"), [
+    (np.zeros(1000), 1.0, "silent"),
+    (np.zeros(1000, np.int16), None, "silent"),
+    (np.full(1000, 0.25), 1.0, "constant"),
+    (np.where(np.arange(1000) == 3, np.nan, 0.1), 1.0, "NaN"),
+    (np.where(np.arange(1000) == 3, np.inf, 0.1), 1.0, "infinite"),
+    (np.clip(np.random.default_rng(0).normal(0, 3, 1000), -1, 1), 1.0, "clipped"),
+    (np.array([], float), 1.0, "empty"),
+    (np.array(["a", "b"]), None, "not numbers"),
+])
+def test_unusable_recordings_are_named(x, full_scale, says):
+    assert says in signal_problem(x, full_scale)
+
+
+def test_usable_recordings_pass():
+    rng = np.random.default_rng(1)
+    assert signal_problem(rng.normal(0, 0.1, 44100), 1.0) is None
+    assert signal_problem((rng.normal(0, 3000, (4410, 2))).astype(np.int16)) is None
+    sine = np.sin(np.linspace(0, 200 * np.pi, 8000))  # peaks at full scale, not clipped
+    assert signal_problem(sine, 1.0) is None
