@@ -55,8 +55,8 @@ import scipy.fft
 from scipy.signal import resample_poly
 from scipy.signal.windows import hann
 
-from ..audio.sanity import clipped_fraction, clipped_mask  # noqa: F401  (public names here)
-from ..errors import BadFileError
+from ...audio.sanity import clipped_fraction, clipped_mask  # noqa: F401  (public names here)
+from ...errors import BadFileError
 from .mains import remove_mains
 
 log = logging.getLogger(__name__)

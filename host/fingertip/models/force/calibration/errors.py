@@ -1,7 +1,7 @@
 """Why a calibration dataset is refused: one exception type per cause, each with a ``code``."""
 from __future__ import annotations
 
-from ...errors import Error
+from ....errors import Error
 
 
 class CalibrationError(Error, ValueError):

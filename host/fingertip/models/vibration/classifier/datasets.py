@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...audio.sanity import signal_problem
-from ...errors import BadFileError
+from ....audio.sanity import signal_problem
+from ....errors import BadFileError
 from ..features import (
     AUDIO_EXTENSIONS,
     CSV_EXTENSIONS,
