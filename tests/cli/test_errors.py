@@ -50,7 +50,7 @@ def test_every_exception_has_one_exit_status(e, code):
 
 def test_the_old_classes_are_of_the_vocabulary():
     from fingertip.device import FingertipError
-    from fingertip.models.calibration.errors import CalibrationError
+    from fingertip.models.force.calibration.errors import CalibrationError
     from fingertip.protocol import ProtocolVersionError
     from fingertip.record.reader import RecordingError
     from fingertip.reference import ReferenceError
