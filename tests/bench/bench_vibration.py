@@ -231,6 +231,7 @@ def run() -> dict[str, float]:
         out["material_ece"] = round(r8.report["calibration"]["ece"], 4)
         ds = _cut(load_folder(root / "m8000"), 1.0)
         from fingertip.models.vibration.candidates import choose_setup
+
         from fingertip.models.vibration.features import FeatureConfig
 
         notch = bool(r8.report["mains_notch"]["adopted"])  # as the trainer chose
