@@ -17,8 +17,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..audio.pcm import to_float
 from ..device import FingertipError
-from ..models.vibration.classify import to_float
 from ..record.recorder import device_info
 from ..record.schemas import AUDIO_ENCODINGS
 from .feed import Feed
