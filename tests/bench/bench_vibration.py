@@ -144,7 +144,8 @@ def shifted_slide(material: str, seed: int, seconds: float = 2.0, rate: int = 80
                   normal: tuple[float, float] = (0.5, 2.0), hum: float = 0.0,
                   motor: float = 0.0) -> np.ndarray:
     """One simulated slide (16-bit full scale = 1.0) under one change of conditions."""
-    from fingertip.sim.dataset import resample, to_int16
+    from fingertip.audio.pcm import to_float, to_pcm
+    from fingertip.sim.dataset import resample
     from fingertip.sim.physics import AudioChain, Slide
     from fingertip.sim.physics.disturbances import HUM_50, HumParams, mains_hum, motor_noise
     from fingertip.sim.physics.vibration import Excitation
@@ -166,7 +167,7 @@ def shifted_slide(material: str, seed: int, seconds: float = 2.0, rate: int = 80
     x = chain.finish(v, 0, rng).samples * gain
     if rate != chain.fs:
         x = resample(x, chain.fs, rate)
-    return to_int16(x).astype(np.float64) / 32768.0
+    return to_float(to_pcm(x, "int16"))
 
 
 def shift_accuracy(model_path: Path, classes: list[str], n: int = N_SHIFT,
@@ -231,6 +232,7 @@ def run() -> dict[str, float]:
         out["material_ece"] = round(r8.report["calibration"]["ece"], 4)
         ds = _cut(load_folder(root / "m8000"), 1.0)
         from fingertip.models.vibration.candidates import choose_setup
+
         from fingertip.models.vibration.features import FeatureConfig
 
         notch = bool(r8.report["mains_notch"]["adopted"])  # as the trainer chose

@@ -11,9 +11,7 @@ from fingertip.sim.physics import Realism, VirtualStrainSensor
 from fingertip.sim.device.calibration_rig import calibration_sweep
 from studies.paper_method import (
     PAPER_SPLIT,
-    WINDOW_FRAMES,
     TaskShakes,
-    force_session,
     mse,
     paper_force_model,
     paper_task_votes,
@@ -23,6 +21,8 @@ from studies.paper_method import (
     task_shakes,
     trial_split,
     windows,
+    WINDOW_FRAMES,
+    force_session,
 )
 
 

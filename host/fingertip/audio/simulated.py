@@ -9,10 +9,9 @@ from collections.abc import Callable
 import numpy as np
 
 from .blocks import BlockSource
+from .pcm import FULL_SCALE, to_pcm
 
 SignalFunction = Callable[[np.ndarray], np.ndarray]
-
-_FULL_SCALE = {np.dtype(np.int16): 32768.0, np.dtype(np.int32): 2147483648.0}
 
 
 class SimulatedSource(BlockSource):
@@ -41,12 +40,9 @@ class SimulatedSource(BlockSource):
         self._ramp = np.arange(self.blocksize, dtype=np.float64)
         self._f = np.zeros((self.blocksize, self.channels), dtype=np.float64)
         self._out = np.zeros((self.blocksize, self.channels), dtype=self.dtype)
-        # Worked out once, not per block (np.iinfo, np.issubdtype and np.clip are Python-level
-        # and cost more than the block's arithmetic at 100 blocks a second).
-        self._scale = _FULL_SCALE.get(self.dtype)
-        if self._scale is not None:
-            info = np.iinfo(self.dtype)
-            self._lo, self._hi = float(info.min), float(info.max)
+        # Worked out once, not per block (np.issubdtype and np.clip are Python-level and cost
+        # more than the block's arithmetic at 100 blocks a second).
+        self._integer = self.dtype in FULL_SCALE
 
     def _open(self) -> None:
         pass
@@ -67,13 +63,9 @@ class SimulatedSource(BlockSource):
         if y.ndim == 1:
             y = y.reshape(n, 1)
         out = self._out[:n]
-        if self._scale is not None and y.dtype.kind == "f":
-            f = self._f[:n]
-            np.multiply(y, self._scale, out=f)  # broadcasts one channel to all
-            np.rint(f, out=f)
-            np.minimum(f, self._hi, out=f)  # clipped like a card's converter
-            np.maximum(f, self._lo, out=f)
-            np.copyto(out, f, casting="unsafe")
+        if self._integer and y.dtype.kind == "f":
+            # one channel broadcasts to all; rounded and clipped like a card's converter
+            to_pcm(y, self.dtype, out=out, work=self._f[:n])
         else:
             np.copyto(out, y, casting="same_kind" if y.dtype.kind == out.dtype.kind
                       else "unsafe")

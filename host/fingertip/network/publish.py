@@ -17,9 +17,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from ..audio.pcm import to_float
 from ..device import FingertipError
 from ..device.health import GoneReporter, gone_text, link_text
-from ..models.vibration.classify import to_float
 from ..record.encoding import device_info
 from ..record.schemas import AUDIO_ENCODINGS
 from .diagnostics import PERIOD_S, Health, encode_diagnostic_array

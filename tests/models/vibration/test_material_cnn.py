@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.models.vibration.band_noise import write_band_noise
 from fingertip.models.vibration.augment import NONE, AugmentConfig
 from fingertip.models.vibration.classify import VibrationClassifier
 from fingertip.models.vibration.features import read_recording
 from fingertip.models.vibration.material import train_material
-from tests.models.vibration.band_noise import write_band_noise
 
 RATE = 8000
 
@@ -25,12 +25,8 @@ def folder(tmp_path_factory):
 
 def cnn_work_of(folder, n_fits: int) -> int:
     """The CNN candidate's projected work on ``folder``, counted here from its windows."""
-    from fingertip.models.vibration.candidates import (
-        CNN_EPOCHS,
-        candidate_windows,
-        candidates,
-        choose_setup,
-    )
+    from fingertip.models.vibration.candidates import (CNN_EPOCHS, candidate_windows, candidates,
+                                             choose_setup)
     from fingertip.models.vibration.classify import load_folder
 
     ds = load_folder(folder)

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .anytime import DECISION_TIMES, at_time, running, time_label
 from .augment import NONE as NO_AUGMENT
 from .augment import AugmentConfig, augmented
+from .anytime import DECISION_TIMES, at_time, running, time_label
 from .classify import (
     Dataset,
     DatasetError,

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...audio.pcm import to_float
 from ...audio.sanity import signal_problem
 from ...badfile import BadFileError
 from .classifier.datasets import (
@@ -71,7 +72,7 @@ __all__ = [
     "evaluate", "evaluate_model", "json_safe", "latency_ms", "load_folder", "majority_vote",
     "merge_evaluations", "model_metadata", "paired_difference", "plot_confusion",
     "require_test_set", "scan_folder", "split_by_recording",
-    "split_report", "stack", "stratified_folds", "to_float", "validation_split"
+    "split_report", "stack", "stratified_folds", "validation_split"
 ]
 
 log = logging.getLogger(__name__)
@@ -332,15 +333,6 @@ class VibrationClassifier:
             yield from live.feed(x, first, chunk)
             if limit is not None and first + chunk.frames >= limit:
                 return
-
-
-def to_float(x: np.ndarray) -> np.ndarray:
-    """int16, int32 or float samples -> float64 in [-1, 1]."""
-    if x.dtype == np.int16:
-        return x.astype(np.float64) / 32768.0
-    if x.dtype == np.int32:
-        return x.astype(np.float64) / 2147483648.0
-    return x.astype(np.float64)
 
 
 class _LiveWindows:

@@ -28,10 +28,10 @@ from dataclasses import replace
 import numpy as np
 
 from .candidates import (
-    TIE,
     Answers,
     Candidate,
     CandidateWindows,
+    TIE,
     Setup,
     accuracy_by_time,
     candidate_windows,

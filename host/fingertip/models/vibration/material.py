@@ -33,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..nets.figures import pyplot, save_png
 from .anytime import DECISION_TIMES
 from .augment import AugmentConfig
 from .candidates import (
@@ -41,7 +40,6 @@ from .candidates import (
     CNN_EPOCHS,
     CNN_WORK_LIMIT,
     TIE,
-    UNKNOWN_KEEP,
     Answers,
     Candidate,
     Fitted,
@@ -51,14 +49,15 @@ from .candidates import (
     calibrated,
     candidate_windows,
     candidates,
-    choose_setup,
     cnn_work,
+    choose_setup,
     cross_validate,
     cross_validate_against,
     decision_curve,
     ece_of,
     fit_on,
     fold_temperatures,
+    UNKNOWN_KEEP,
     mean_accuracy,
     novelty_on,
     novelty_threshold,
@@ -80,6 +79,7 @@ from .classify import (
     stratified_folds,
 )
 from .features import FeatureConfig, as_recording
+from ..nets.figures import pyplot, save_png
 from .mains_trial import try_mains_notch
 from .reliability import apply_temperature, fit_temperature, plot_reliability
 

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ...audio.pcm import to_pcm
+
 PLAYERS = ("paplay", "pacat")
 PACKAGE = "pulseaudio-utils"
 
@@ -91,8 +93,7 @@ class AudioFeed:
         self.exact16 = on_16bit_grid(x)
         """True: written as 16-bit PCM, bit-exact through a 16-bit sink at the same rate."""
         if self.exact16:
-            self._data = x if x.dtype == np.int16 else \
-                np.rint(x.astype(np.float64) * 32768.0).astype(np.int16)
+            self._data = x if x.dtype == np.int16 else to_pcm(x, "int16")
         else:
             self._data = np.clip(x, -1.0, 1.0).astype(np.float32)
         if self.lead_in_frames:

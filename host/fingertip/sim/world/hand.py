@@ -57,8 +57,8 @@ def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
     from ... import __version__, hardware, models
     from ...models.force.calibrate import fit_calibration, from_arrays
-    from ...models.force.runtime import ForceModel
     from ...models.nets.fit_cache import fit_key
+    from ...models.force.runtime import ForceModel
     from .. import physics
     from ..device import calibration_rig
 
