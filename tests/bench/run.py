@@ -24,7 +24,8 @@ sys.path.insert(0, str(ROOT))
 from tests.bench.machine import describe  # noqa: E402
 
 BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
-           "tasks", "reflex", "network", "realism", "check", "fuzz", "vibration", "hand"]
+           "tasks", "reflex", "network", "realism", "check", "fuzz", "vibration", "hand",
+           "mujoco"]
 OPTIONAL = ["soak"]
 """Run only when named (`make soak`): too long for a default run."""
 JSON_OUT = ROOT / "docs" / "benchmarks.json"

@@ -21,6 +21,10 @@ from ._require import mujoco
 from .attach import AttachedFingertip
 
 
+RESCAN = 16
+"""Steps between scans of d.contact while the number of contacts stays the same."""
+
+
 @dataclass
 class Touch:
     """The deepest contact on the fingertip this step (``found`` False: nothing touches)."""
@@ -65,6 +69,10 @@ class ContactReader:
         self.origin = data.xpos[self.body]
         self._v_tip = np.zeros(6)
         self._v_other = np.zeros(6)
+        self._arm = np.zeros(3)
+        self._spin = np.zeros(3)
+        self._pair = (-1, False)
+        self._pair_ncon, self._pair_age = -1, 0
 
     @property
     def touching(self) -> bool:
@@ -82,33 +90,51 @@ class ContactReader:
         """A global point in the fingertip's frame (m)."""
         return (point_world - self.origin) @ self.rot
 
+    def _point_velocity(self, body: int, point: np.ndarray, buf: np.ndarray) -> np.ndarray:
+        """Global velocity of ``body``'s material point at ``point`` (C calls, no numpy
+        temporaries but one)."""
+        mj = self.mj
+        mj.mj_objectVelocity(self.m, self.d, mj.mjtObj.mjOBJ_BODY, body, buf, 0)
+        mj.mju_sub3(self._arm, point, self.d.xpos[body])
+        mj.mju_cross(self._spin, buf[:3], self._arm)
+        return buf[3:] + self._spin
+
     def touch(self) -> Touch:
-        """The deepest contact with its slip and approach speeds (costs a d.contact scan)."""
+        """The deepest contact with its slip and approach speeds."""
         if self.net_found[0] <= 0:
+            self._pair_ncon = -1
             return Touch()
-        d, mj = self.d, self.mj
+        d = self.d
+        # Which geoms touch changes only when the contact list does: scan d.contact then
+        # (and every RESCAN steps), not every step.
+        if d.ncon != self._pair_ncon or self._pair_age >= RESCAN:
+            if not self._scan():
+                return Touch()
+        self._pair_age += 1
+        other, nail = self._pair
+        point, normal = self.near_pos, self.near_normal
+        rel = self._point_velocity(self.body, point, self._v_tip)
+        body = int(self.m.geom_bodyid[other])
+        if body:
+            rel = self._point_velocity(body, point, self._v_other) - rel
+        else:
+            rel = -rel
+        vn = float(rel @ normal)
+        slip2 = max(0.0, float(rel @ rel) - vn * vn)
+        return Touch(True, abs(float(self.net_force @ normal)), slip2 ** 0.5 * 1e3,
+                     abs(vn) * 1e3, nail, other, max(0.0, -float(self.near_dist[0])))
+
+    def _scan(self) -> bool:
+        """Find the deepest contact of the fingertip in d.contact: its other geom, and
+        whether the nail carries it."""
+        d = self.d
         geoms = d.contact.geom
         hits = self.is_tip[geoms]
         rows = np.flatnonzero(hits[:, 0] | hits[:, 1])
         if rows.size == 0:  # the sensor saw a contact the constraint list dropped
-            return Touch()
+            return False
         r = rows[np.argmin(d.contact.dist[rows])] if rows.size > 1 else rows[0]
         side = 0 if hits[r, 0] else 1
-        other = int(geoms[r, 1 - side])
-        normal = self.near_normal
-        point = self.near_pos
-        mj.mj_objectVelocity(self.m, d, mj.mjtObj.mjOBJ_BODY, self.body, self._v_tip, 0)
-        v_tip = self._v_tip[3:] + np.cross(self._v_tip[:3], point - self.origin)
-        body = int(self.m.geom_bodyid[other])
-        if body:
-            mj.mj_objectVelocity(self.m, d, mj.mjtObj.mjOBJ_BODY, body, self._v_other, 0)
-            v_other = self._v_other[3:] + np.cross(self._v_other[:3], point - d.xpos[body])
-        else:
-            v_other = np.zeros(3)
-        rel = v_other - v_tip
-        vn = float(rel @ normal)
-        slip = rel - vn * normal
-        return Touch(True, abs(float(self.net_force @ normal)),
-                     float(np.sqrt(slip @ slip)) * 1e3, abs(vn) * 1e3,
-                     int(geoms[r, side]) == self.nail, other,
-                     max(0.0, -float(self.near_dist[0])))
+        self._pair = (int(geoms[r, 1 - side]), int(geoms[r, side]) == self.nail)
+        self._pair_ncon, self._pair_age = d.ncon, 0
+        return True

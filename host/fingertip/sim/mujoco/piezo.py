@@ -15,9 +15,17 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter, oaconvolve
+from scipy.signal import lfilter
 
-from .project import AudioChain, FingertipParams, Material, half_sine, material_named, place
+from .project import (
+    AudioChain,
+    FingertipParams,
+    Material,
+    good_fft_size,
+    half_sine,
+    material_named,
+    place,
+)
 from .texture import TextureStream
 
 IR_SAMPLES = 4096
@@ -41,7 +49,7 @@ class Block:
 class PiezoStream:
     """One fingertip's contact microphone, rendered in blocks of ``block`` samples."""
 
-    def __init__(self, params: FingertipParams, seed: int | None = 0, *, block: int = 1024,
+    def __init__(self, params: FingertipParams, seed: int | None = 0, *, block: int = 4096,
                  hum: bool = True, noise: bool = True, default_material: str = "tpu") -> None:
         self.chain = AudioChain(params, hum=hum, noise=noise)
         self.fs = self.chain.fs
@@ -50,6 +58,8 @@ class PiezoStream:
         self._rng, self._tex_ss = np.random.default_rng(ss.spawn(1)[0]), ss
         nfft = IR_SAMPLES
         self.ir = np.fft.irfft(self.chain.response(np.fft.rfftfreq(nfft, 1 / self.fs)), nfft)
+        self._nfft = good_fft_size(block + nfft - 1)
+        self._ir_spec = np.fft.rfft(self.ir, self._nfft)
         self.default_material = material_named(default_material)
         self._textures: dict[str, TextureStream] = {}
         self._lowpass: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
@@ -134,11 +144,9 @@ class PiezoStream:
             if v.any() or tex.carry.any():
                 excite += self._soft(mat, tex.block(v, normal) * gain)
         excite += self._impact_block(k0, n)
-        v_in = oaconvolve(excite, self.ir)
+        v_in = np.fft.irfft(np.fft.rfft(excite, self._nfft) * self._ir_spec, self._nfft)
         v_in[:len(self._tail)] += self._tail
         self._tail = v_in[n:n + len(self._tail)].copy()
-        if len(self._tail) < len(self.ir) - 1:
-            self._tail = np.pad(self._tail, (0, len(self.ir) - 1 - len(self._tail)))
         out = self.chain.finish(v_in[:n].copy(), k0, self._rng).samples
         self.next_sample = k0 + n
         # Keep the last step before the next block: interpolation needs it.

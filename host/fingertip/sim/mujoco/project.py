@@ -13,10 +13,12 @@ from ..physics.params import load as load_params
 from ..physics.realism import Realism
 from ..physics.realism import load as load_realism
 from ..physics.strain import Effects, VirtualStrainSensor
-from ..physics.vibration import AudioChain, half_sine, place
+from ..physics.vibration import AudioChain, good_fft_size, half_sine, place
+from ..world.hand import CHIP, TOFU
 
 __all__ = [
-    "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "AudioChain", "Effects",
-    "FingertipParams", "Material", "Realism", "VirtualStrainSensor", "half_sine",
+    "CHIP", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU", "AudioChain",
+    "Effects",
+    "FingertipParams", "Material", "Realism", "VirtualStrainSensor", "good_fft_size", "half_sine",
     "load_params", "load_realism", "material_named", "place",
 ]

@@ -79,7 +79,7 @@ class FingertipSensor:
                  seed: int | None = 0, realism: Realism | None = None,
                  effects: Effects | None = None, rate_sps: int = 80, batch: int = 8,
                  materials: dict[str, str] | None = None, default_material: str = "tpu",
-                 audio_block: int = 1024, params: FingertipParams | None = None) -> None:
+                 audio_block: int = 4096, params: FingertipParams | None = None) -> None:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, not "
                              f"{fidelity!r}")
