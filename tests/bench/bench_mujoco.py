@@ -10,6 +10,10 @@
   everything included (control, steps, sensors, breaking); the CPU time of this process
   (one core), so that other load on a shared machine does not count.
 
+- ``mujoco_pinch_success`` (of 50: the paper's 25 tofu + 25 chip) on the MuJoCo gripper with
+  the recipe of ``tasks/pinch.py`` unchanged, beside ``mujoco_pinch_world_success``, the same
+  recipe, thresholds and seeds in today's virtual world (``sim/experiment.py``), in this run.
+
 Single thread, pinned to one core where possible.
 """
 from __future__ import annotations
@@ -18,7 +22,9 @@ import os
 import statistics
 import time
 
+from fingertip.sim import experiment as world_experiment
 from fingertip.sim.mujoco import FIDELITIES, FingertipSensor
+from fingertip.sim.mujoco import experiment as mujoco_experiment
 from fingertip.sim.mujoco.drive import press_and_slide
 from fingertip.sim.mujoco.drive import run as step_scene
 from fingertip.sim.mujoco.gripper import gripper
@@ -76,11 +82,31 @@ def gripper_realtime_factor(seconds: float = SECONDS) -> float:
     return seconds / (time.process_time() - c0)
 
 
+def pinch_figures(trials: int = 25) -> dict[str, float]:
+    """The paper's pinch in both worlds, the same thresholds (the virtual world's
+    demonstration) and seeds."""
+    out: dict[str, float] = {}
+    total = {"mujoco": 0, "world": 0}
+    for name in ("tofu", "chip"):
+        world = world_experiment.run_pinch(name, trials, 0)
+        mj = mujoco_experiment.run_pinch(name, trials, 0, f_th_n=world.f_th_n)
+        total["world"] += world.success
+        total["mujoco"] += mj.success
+        out[f"mujoco_pinch_success_{name}"] = mj.success
+        out[f"mujoco_pinch_world_success_{name}"] = world.success
+        out[f"mujoco_pinch_lift_mm_min_{name}"] = round(
+            min(t["lifted_mm"] for t in mj.trials), 2)
+    out["mujoco_pinch_success"] = total["mujoco"]
+    out["mujoco_pinch_world_success"] = total["world"]
+    return out
+
+
 def run_bench() -> dict[str, float]:
     out = sensor_costs()
     gripper_realtime_factor(0.5)  # warm up
     out["mujoco_realtime_factor_full"] = round(
         statistics.median(gripper_realtime_factor() for _ in range(3)), 2)
+    out.update(pinch_figures())
     return out
 
 
@@ -107,4 +133,17 @@ DESCRIPTION = {
                                     "pinching the tofu, two fingertips with audio, "
                                     "everything included",
                                     (">=", 10.0)),
+    "mujoco_pinch_success": ("pinch trials held, lifted and unbroken on the MuJoCo gripper "
+                             "(tasks/pinch.py unchanged), of 50: 25 tofu + 25 chip", None),
+    "mujoco_pinch_world_success": ("the same recipe, thresholds and seeds in today's "
+                                   "virtual world, of 50, in the same run", None),
+    "mujoco_pinch_success_tofu": ("MuJoCo pinch, tofu (F_th from the demonstration at the "
+                                  "paper's 0.5 N), of 25", None),
+    "mujoco_pinch_success_chip": ("MuJoCo pinch, potato chip (the paper's 0.1 N), of 25",
+                                  None),
+    "mujoco_pinch_world_success_tofu": ("today's world, tofu, of 25", None),
+    "mujoco_pinch_world_success_chip": ("today's world, chip, of 25", None),
+    "mujoco_pinch_lift_mm_min_tofu": ("smallest lift of the tofu's halves when the recipe "
+                                      "ends (mm; the arm was told 20)", None),
+    "mujoco_pinch_lift_mm_min_chip": ("the same for the chip (mm)", None),
 }

@@ -1,5 +1,5 @@
-"""``fingertip sim device | faults | dataset``: the virtual fingertip on a pty, its build
-faults, and datasets from it.
+"""``fingertip sim device | mujoco | faults | dataset``: the virtual fingertip on a pty (alone
+or in a MuJoCo scene), its build faults, and datasets from it.
 
 :func:`add_group` adds ``fingertip sim`` with all three; :func:`add_parsers` adds ``dataset``
 to the subparsers of ``fingertip sim``. Handlers return
@@ -50,6 +50,39 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     with PtyDevice(fw, link=args.link) as dev:
         print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+        try:
+            while not stop.wait(0.2):
+                pass
+        except KeyboardInterrupt:
+            pass
+    return 0
+
+
+def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
+    """Serve one fingertip of a MuJoCo scene on a pty through the virtual device (the
+    firmware's C++ core): `fingertip stream`, `record`, `check` and `publish` read it as a
+    fingertip. Needs the mujoco extra."""
+    import signal
+    import threading
+
+    try:
+        from ..sim.mujoco.live import SCENES, LiveSimulation
+    except ImportError as e:
+        log.error("%s", e)
+        return 2
+    from ..sim import VirtualFirmware
+    from ..sim.pty_device import PtyDevice
+
+    if args.scene not in SCENES:
+        log.error("unknown scene %r: one of %s", args.scene, ", ".join(SCENES))
+        return 2
+    live = LiveSimulation(args.scene, seed=args.seed)
+    fw = VirtualFirmware(4, source=live.counts_source())
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with PtyDevice(fw, link=args.link) as dev:
+        print(f"MuJoCo scene {args.scene!r} ({SCENES[args.scene].what}): fingertip on "
+              f"{dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
         try:
             while not stop.wait(0.2):
                 pass
@@ -189,6 +222,15 @@ def add_group(sub) -> None:
     sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
                     help="a build fault (repeatable): " + ", ".join(FAULTS))
     sd.set_defaults(func=_cmd_sim_device)
+    sj = smsub.add_parser("mujoco", help="serve a fingertip of a MuJoCo scene on a "
+                                         "pseudo-terminal (needs the mujoco extra)",
+                          description=_cmd_sim_mujoco.__doc__)
+    sj.add_argument("--scene", default="slide", metavar="NAME",
+                    help="slide (a probe over the seven materials, default) or pinch (a "
+                         "gripper and the tofu)")
+    sj.add_argument("--link", help="also make this path a symlink to the pty")
+    sj.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sj.set_defaults(func=_cmd_sim_mujoco)
     sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
                           description=_cmd_sim_faults.__doc__)
     sf.set_defaults(func=_cmd_sim_faults)

@@ -1,11 +1,17 @@
 """The one place where ``sim/mujoco`` reaches the rest of the project.
 
 The fingertip's dimensions (the same file the CAD reads), its strain and piezo physics, the
-error sources and the sliding materials are imported here and nowhere else in this package,
-so that a move of those modules changes one file.
+error sources, the sliding materials, the virtual world's objects, force models and
+demonstration, the recipes and the robot interfaces are imported here and nowhere else in this
+package, so that a move of those modules changes one file.
 """
 from __future__ import annotations
 
+from ...audio import SimulatedSource
+from ...device import Frame
+from ...tasks.grip import PinchConfig
+from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
+from ...tasks.pinch import pinch
 from ..physics.materials import MATERIALS, PAPER_SEVEN, REF_NORMAL_N, REF_SPEED_MM_S, Material
 from ..physics.materials import material as material_named
 from ..physics.params import FingertipParams
@@ -14,11 +20,13 @@ from ..physics.realism import Realism
 from ..physics.realism import load as load_realism
 from ..physics.strain import Effects, VirtualStrainSensor
 from ..physics.vibration import AudioChain, good_fft_size, half_sine, place
-from ..world.hand import CHIP, TOFU
+from ..world.demonstration import demonstrate
+from ..world.hand import CHIP, TOFU, unit_force_model
 
 __all__ = [
-    "CHIP", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU", "AudioChain",
-    "Effects",
-    "FingertipParams", "Material", "Realism", "VirtualStrainSensor", "good_fft_size", "half_sine",
-    "load_params", "load_realism", "material_named", "place",
+    "CHIP", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU", "AudioBlock",
+    "AudioChain", "demonstrate", "Effects", "FingertipParams", "Frame", "FrameSet",
+    "good_fft_size", "half_sine", "load_params", "load_realism", "Material", "material_named",
+    "pinch", "PinchConfig", "place", "Realism", "RobotArm", "RobotHand", "unit_force_model",
+    "SimulatedSource", "VirtualStrainSensor",
 ]
