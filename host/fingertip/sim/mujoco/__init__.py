@@ -14,9 +14,9 @@ from ._require import mujoco as _mujoco
 
 _mujoco()  # one clear line when the extra is missing
 
-from .attach import AttachedFingertip, attach_fingertip, geometry  # noqa: E402
+from .attach import AttachedFingertip, attach_fingertip, attach_fingertips, geometry  # noqa: E402,E501
 from .piezo import Block, PiezoStream  # noqa: E402
 from .sensor import FIDELITIES, FingertipSensor, Reading  # noqa: E402
 
 __all__ = ["FIDELITIES", "AttachedFingertip", "Block", "FingertipSensor", "PiezoStream",
-           "Reading", "attach_fingertip", "geometry"]
+           "Reading", "attach_fingertip", "attach_fingertips", "geometry"]

@@ -159,3 +159,20 @@ def attach_fingertip(spec, body: str, name: str = "fingertip", *,
                             objtype=mj.mjtObj.mjOBJ_BODY, objname=name)
         s.intprm[:3] = [fields, reduce, 1]
     return AttachedFingertip(name, name, names, names[2], sensors[0], sensors[1], geo)
+
+
+def attach_fingertips(spec, bodies, *, pos: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                      quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0),
+                      params: FingertipParams | None = None) -> dict[str, AttachedFingertip]:
+    """A fingertip on each of ``bodies`` (body names: the distal links of a hand), all at
+    the same ``pos`` and ``quat`` in their body's frame; named ``<body>_fingertip``.
+
+    Returns them by body name. Bodies are checked before anything is added, so a typo adds
+    nothing."""
+    missing = [b for b in bodies if spec.body(b) is None]
+    if missing:
+        names = ", ".join(b.name for b in spec.bodies if b.name) or "none"
+        raise ValueError(f"no body {', '.join(map(repr, missing))} in the model "
+                         f"(bodies: {names})")
+    return {b: attach_fingertip(spec, b, f"{b}_fingertip", pos=pos, quat=quat, params=params)
+            for b in bodies}
