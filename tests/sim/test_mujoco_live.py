@@ -3,6 +3,7 @@ run as a user runs it."""
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -74,3 +75,20 @@ def test_cli_serves_a_mujoco_fingertip_that_stream_reads(tmp_path):
     r = subprocess.run([EXE, "sim", "mujoco", "--scene", "cups"], capture_output=True,
                        text=True, timeout=60)
     assert r.returncode == 2 and "unknown scene 'cups'" in r.stderr
+
+
+def test_cli_renders_frames_counts_and_a_summary_headless(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    out = tmp_path / "run"
+    r = subprocess.run([EXE, "sim", "mujoco", "--scene", "pinch", "--render", str(out),
+                        "--seconds", "2", "--fps", "5"], capture_output=True, text=True,
+                       timeout=120, env=env)
+    assert r.returncode == 0, r.stderr
+    frames = sorted((out / "frames").glob("frame_*.png"))
+    assert len(frames) == 10 and all(f.stat().st_size > 2_000 for f in frames)
+    assert (out / "summary.png").stat().st_size > 20_000
+    rows = (out / "counts.csv").read_text().splitlines()
+    assert rows[0].startswith("t_s,fx_n") and len(rows) == 1 + 2 * 80
+    r = subprocess.run([EXE, "sim", "mujoco", "--view"], capture_output=True, text=True,
+                       timeout=120, env=env)
+    assert r.returncode == 2 and "no display for the viewer" in r.stderr

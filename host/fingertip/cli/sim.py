@@ -76,6 +76,21 @@ def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
     if args.scene not in SCENES:
         log.error("unknown scene %r: one of %s", args.scene, ", ".join(SCENES))
         return 2
+    if args.render or args.view:
+        from ..sim.mujoco.render import render_run, view
+
+        if args.view:
+            try:
+                view(args.scene, args.seconds, seed=args.seed)
+            except RuntimeError as e:
+                log.error("%s", e)
+                return 2
+            return 0
+        r = render_run(args.scene, args.render, seconds=args.seconds or 6.0, fps=args.fps,
+                       seed=args.seed)
+        print(f"wrote {r.frames} frames, {r.readings} readings and {r.audio_s:.1f} s of piezo "
+              f"to {r.out} (summary.png, counts.csv, frames/)")
+        return 0
     live = LiveSimulation(args.scene, seed=args.seed)
     fw = VirtualFirmware(4, source=live.counts_source())
     stop = threading.Event()
@@ -230,6 +245,16 @@ def add_group(sub) -> None:
                          "gripper and the tofu)")
     sj.add_argument("--link", help="also make this path a symlink to the pty")
     sj.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sj.add_argument("--render", metavar="DIR",
+                    help="instead of serving: run the scene headless and write PNG frames, "
+                         "counts.csv and summary.png (counts, force, spectrogram) to DIR")
+    sj.add_argument("--view", action="store_true",
+                    help="instead of serving: MuJoCo's passive viewer (needs a display)")
+    sj.add_argument("--seconds", type=number(float, 0.1, 3600.0), metavar="S",
+                    help="length of a --render run (default 6) or a --view (default: until "
+                         "closed)")
+    sj.add_argument("--fps", type=number(float, 1.0, 60.0), default=20.0,
+                    help="frames per simulated second of --render (default 20)")
     sj.set_defaults(func=_cmd_sim_mujoco)
     sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
                           description=_cmd_sim_faults.__doc__)

@@ -71,7 +71,8 @@ SCENES = {
 class LiveSimulation:
     """One fingertip of a scene, stepped on demand for the device and the microphone."""
 
-    def __init__(self, name: str, seed: int = 0) -> None:
+    def __init__(self, name: str, seed: int = 0, *, keep: bool = False) -> None:
+        """``keep``: also keep every reading in :attr:`history` (for a run's summary)."""
         if name not in SCENES:
             raise ValueError(f"unknown scene {name!r}: one of {', '.join(SCENES)}")
         self.spec = SCENES[name]
@@ -86,6 +87,8 @@ class LiveSimulation:
         self._audio: list[np.ndarray] = []
         self._audio_start = 0
         self._audio_len = 0
+        self.keep = keep
+        self.history: list = []
 
     def advance_to(self, t_s: float) -> None:
         """Step the scene until its time reaches ``t_s`` (s)."""
@@ -100,6 +103,8 @@ class LiveSimulation:
                 rs = self.sensor.readings()
                 if rs:
                     self._raw = rs[-1].raw
+                    if self.keep:
+                        self.history += rs
                 for b in self.sensor.audio():
                     self._audio.append(b.samples)
                     self._audio_len += len(b.samples)
@@ -111,6 +116,11 @@ class LiveSimulation:
             self.advance_to(t_us * 1e-6)
             return tuple(float(v) for v in self._raw)
         return source
+
+    def audio_so_far(self) -> np.ndarray:
+        """Every piezo sample kept so far (from the first one not yet read by a source)."""
+        with self._lock:
+            return np.concatenate(self._audio) if self._audio else np.zeros(0, np.float32)
 
     def samples(self, first: int, n: int) -> np.ndarray:
         """Piezo samples ``first .. first + n`` (simulating as far as they need)."""
