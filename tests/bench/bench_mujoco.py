@@ -10,6 +10,10 @@
   everything included (control, steps, sensors, breaking); the CPU time of this process
   (one core), so that other load on a shared machine does not count.
 
+- ``mujoco_force_rmse_n``: a unit's calibrated force model against MuJoCo's contact force
+  over a pinch and a slide, beside the same model on a later sweep of its own virtual unit.
+- ``mujoco_material_accuracy``: the material classifier trained on today's simulated slides,
+  tested on the nail sliding over the MuJoCo plates.
 - ``mujoco_pinch_success`` (of 50: the paper's 25 tofu + 25 chip) on the MuJoCo gripper with
   the recipe of ``tasks/pinch.py`` unchanged, beside ``mujoco_pinch_world_success``, the same
   recipe, thresholds and seeds in today's virtual world (``sim/experiment.py``), in this run.
@@ -18,17 +22,30 @@ Single thread, pinned to one core where possible.
 """
 from __future__ import annotations
 
+import math
 import os
 import statistics
+import tempfile
 import time
+from pathlib import Path
+
+import numpy as np
 
 from fingertip.sim import experiment as world_experiment
 from fingertip.sim.mujoco import FIDELITIES, FingertipSensor
 from fingertip.sim.mujoco import experiment as mujoco_experiment
 from fingertip.sim.mujoco.drive import press_and_slide
 from fingertip.sim.mujoco.drive import run as step_scene
+from fingertip.models.calibration.evaluate import rmse
+from fingertip.models.classify import VibrationClassifier
+from fingertip.models.features import Recording
+from fingertip.models.material import train_material
+from fingertip.sim.dataset import write_vibration
 from fingertip.sim.mujoco.gripper import gripper
-from fingertip.sim.mujoco.scenes import probe
+from fingertip.sim.mujoco.robot import HAND_UNIT, open_gap_mm
+from fingertip.sim.mujoco.scenes import NAIL_DOWN, probe
+from fingertip.sim.physics import PAPER_SEVEN, VirtualStrainSensor, calibration_sweep
+from fingertip.sim.world.hand import unit_force_model
 
 SECONDS = 3.0
 REPEATS = 5
@@ -82,6 +99,100 @@ def gripper_realtime_factor(seconds: float = SECONDS) -> float:
     return seconds / (time.process_time() - c0)
 
 
+SLIDE_QUAT = (math.cos(math.radians(-96) / 2), 0.0, math.sin(math.radians(-96) / 2), 0.0)
+"""The slide's fingertip: the face opposite the nail down (the calibrated side: forces at
+0 +- 50 degrees), tilted 6 degrees so the roof's end leads (flat, the base touches too)."""
+LOADED_N = 0.1
+"""Readings with less true force than this are left out of the force errors (as unloaded)."""
+
+
+def _tared_error(model, readings, t_tare: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
+    """Estimates and MuJoCo's lateral forces of the loaded readings, tared on the first
+    ``t_tare`` seconds (nothing touches)."""
+    tare = np.mean([r.counts for r in readings if r.t < t_tare], axis=0)
+    loaded = [r for r in readings if np.hypot(*r.force_n[:2]) > LOADED_N]
+    est = model.estimate(np.array([r.counts for r in loaded], float) - tare)
+    return np.asarray(est)[:, :2], np.array([r.force_n[:2] for r in loaded])
+
+
+def force_rmse() -> dict[str, float]:
+    """The unit's calibrated force model against MuJoCo's contact force (pinch, slide), and
+    against the virtual fingertip's own truth on a later calibration sweep of that unit."""
+    model = unit_force_model(HAND_UNIT)
+    sc = gripper(("tofu",))
+    brk = sc.info["breakables"]
+    pinch = FingertipSensor(sc.model, sc.data, sc.tips["left"], seed=HAND_UNIT, batch=8)
+    gap = open_gap_mm(0.015) * 1e-3
+
+    def squeeze(t: float, data) -> None:  # to 1.2 N (below the tofu's 1.5 N) and back
+        data.ctrl[2] = -0.096 * min(1.0, t / 0.4)
+        u = min(1.0, max(0.0, t - 0.6) / 3.0) - min(1.0, max(0.0, t - 4.6) / 2.0)
+        data.ctrl[3] = data.ctrl[4] = gap - 0.001 + 0.005 * u
+        brk.update(data)
+
+    step_scene(sc.model, sc.data, [pinch], 7.0, squeeze)
+    e1, f1 = _tared_error(model, pinch.readings())
+    sl = probe(("coarse_fabric",), quat=SLIDE_QUAT)
+    slide = FingertipSensor(sl.model, sl.data, sl.tips["tip"], seed=HAND_UNIT, batch=8,
+                            materials=sl.materials)
+    step_scene(sl.model, sl.data, [slide], 4.0,
+               press_and_slide(press_m=0.004, slide_mm_s=20.0, t_press=1.0, t_slide=1.5,
+                               axis=1))
+    e2, f2 = _tared_error(model, slide.readings(), t_tare=0.3)
+    sensor = VirtualStrainSensor(HAND_UNIT)
+    tare = sensor.counts_batch(np.zeros((16, 2)), 0.0, np.arange(1, 17) / 80).mean(axis=0)
+    sw = calibration_sweep(sensor, seed=7, t0_us=1_000_000)
+    truth = np.column_stack([sw.fx, sw.fy])
+    keep = np.hypot(sw.fx, sw.fy) > LOADED_N
+    own = rmse(model.estimate(sw.counts[keep] - tare), truth[keep])
+    both = rmse(np.vstack([e1, e2]), np.vstack([f1, f2]))
+    return {"mujoco_force_rmse_n": round(both, 4),
+            "mujoco_force_rmse_pinch_n": round(rmse(e1, f1), 4),
+            "mujoco_force_rmse_slide_n": round(rmse(e2, f2), 4),
+            "mujoco_force_rmse_virtual_n": round(own, 4),
+            "mujoco_force_rmse_ratio": round(both / own, 3)}
+
+
+MATERIAL_SLIDES = 5
+"""MuJoCo slides per material (the nail over its plate, speed 10-30 mm/s, 0.5-2 N)."""
+
+
+def _mujoco_slide(name: str, speed_mm_s: float, press_m: float, seed: int) -> np.ndarray:
+    """The piezo of the nail sliding over plate ``name`` (the 1.6 s of steady sliding)."""
+    sc = probe((name,), quat=NAIL_DOWN)
+    s = FingertipSensor(sc.model, sc.data, sc.tips["tip"], fidelity="full", seed=seed,
+                        materials=sc.materials)
+    step_scene(sc.model, sc.data, [s], 2.8,
+               press_and_slide(press_m=press_m, slide_mm_s=speed_mm_s, t_press=0.6,
+                               t_slide=1.0, axis=1))
+    return np.concatenate([b.samples for b in s.audio()
+                           if b.t0 >= 1.2 and b.t0 + len(b.samples) / b.fs <= 2.8])
+
+
+def material_accuracy() -> dict[str, float]:
+    """The material classifier trained on today's simulated slides (20 per material), tested
+    on slides over the MuJoCo plates: per window, and one majority vote per slide."""
+    rng = np.random.default_rng(0)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        write_vibration(folder / "data", kind="materials", recordings_per_class=20, seed=5)
+        train_material(folder / "data", folder, plot=False, epochs=150, models=("mlp",))
+        clf = VibrationClassifier(folder / "material.onnx")
+        right = windows = votes = slides = 0
+        for name in PAPER_SEVEN:
+            for k in range(MATERIAL_SLIDES):
+                x = _mujoco_slide(name, float(rng.uniform(10, 30)),
+                                  float(rng.uniform(0.001, 0.004)), k)
+                labels = [p.label for p in clf.classify(Recording(x.astype(np.float64),
+                                                                  44100)).predictions]
+                right += sum(label == name for label in labels)
+                windows += len(labels)
+                votes += max(set(labels), key=labels.count) == name
+                slides += 1
+    return {"mujoco_material_accuracy": round(right / windows, 4),
+            "mujoco_material_vote_accuracy": round(votes / slides, 4)}
+
+
 def pinch_figures(trials: int = 25) -> dict[str, float]:
     """The paper's pinch in both worlds, the same thresholds (the virtual world's
     demonstration) and seeds."""
@@ -103,6 +214,8 @@ def pinch_figures(trials: int = 25) -> dict[str, float]:
 
 def run_bench() -> dict[str, float]:
     out = sensor_costs()
+    out.update(force_rmse())
+    out.update(material_accuracy())
     gripper_realtime_factor(0.5)  # warm up
     out["mujoco_realtime_factor_full"] = round(
         statistics.median(gripper_realtime_factor() for _ in range(3)), 2)
@@ -133,6 +246,22 @@ DESCRIPTION = {
                                     "pinching the tofu, two fingertips with audio, "
                                     "everything included",
                                     (">=", 10.0)),
+    "mujoco_force_rmse_n": ("force RMSE (N, vector Fx Fy) of the fingertip's calibrated force "
+                            "model against MuJoCo's contact force, pinch (0-1.2 N, the lower 5 mm "
+                            "of the cap's side) and slide (2 N on the cap's edge, coarse "
+                            "fabric), readings above 0.1 N", None),
+    "mujoco_force_rmse_pinch_n": ("the same, the pinch alone", None),
+    "mujoco_force_rmse_slide_n": ("the same, the slide alone", None),
+    "mujoco_force_rmse_virtual_n": ("the same model on a later calibration sweep of its own "
+                                    "virtual unit (every error source): the virtual "
+                                    "fingertip's own figure", None),
+    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over the virtual fingertip's own",
+                                ("<=", 1.1)),
+    "mujoco_material_accuracy": ("the material classifier trained on today's simulated slides "
+                                 "(20 per material), per window on the nail sliding over the "
+                                 "MuJoCo plates (5 slides per material, 10-30 mm/s, "
+                                 "0.5-2 N)", (">=", 0.95)),
+    "mujoco_material_vote_accuracy": ("the same, one majority vote per slide", None),
     "mujoco_pinch_success": ("pinch trials held, lifted and unbroken on the MuJoCo gripper "
                              "(tasks/pinch.py unchanged), of 50: 25 tofu + 25 chip", None),
     "mujoco_pinch_world_success": ("the same recipe, thresholds and seeds in today's "

@@ -85,7 +85,9 @@ def test_press_reads_the_servo_force_with_the_right_sign():
     last = s.readings()[-1]
     np.testing.assert_allclose(last.force_n, force, atol=0.02)
     # The silicone relaxes under the held load (realism.toml [skin]: 13 % over tens of s).
-    relaxed = skin.readings()[-1].force_n[2] / last.force_n[2]
+    relaxed_reading = skin.readings()[-1]
+    np.testing.assert_array_equal(relaxed_reading.force_n, last.force_n)  # MuJoCo's force
+    relaxed = relaxed_reading.cap_force_n[2] / last.force_n[2]
     assert 0.9 < relaxed < 0.99
 
 
@@ -111,11 +113,22 @@ def test_nail_and_cap_edge_contacts(quat, lo, hi, nail):
     sc = probe(("tpu",), quat=quat)
     s = FingertipSensor(sc.model, sc.data, sc.tips["tip"], fidelity="full",
                         realism=Realism.none())
-    run(sc.model, sc.data, [s], 1.5, press_and_slide(slide_mm_s=10.0, axis=1))
-    force, height = s.wrench()
-    assert lo <= height <= hi
-    assert s.reader.touch().nail is nail
-    assert np.linalg.norm(force) > 0.5
+    run(sc.model, sc.data, [s], 1.0, press_and_slide(slide_mm_s=10.0, axis=1))
+    touches, wrenches = [], []
+    control = press_and_slide(slide_mm_s=10.0, axis=1)
+    while sc.data.time < 1.5:  # a sliding contact flickers: look at every step
+        control(sc.data.time, sc.data)
+        mujoco.mj_step(sc.model, sc.data)
+        s.step()
+        if s.reader.touching:
+            touches.append(s.reader.touch())
+            wrenches.append(s.wrench())
+    assert len(touches) > 0.5 * 0.5 / sc.model.opt.timestep
+    assert all(t.nail is nail for t in touches if t.found)
+    heights = np.array([h for _, h in wrenches])
+    assert lo <= np.median(heights) <= hi
+    assert np.median([np.linalg.norm(f) for f, _ in wrenches]) > 0.5
+    s.flush()
     rs = s.readings()
     assert all(np.all(np.isfinite(r.raw)) for r in rs)
     audio = np.concatenate([b.samples for b in s.audio()])

@@ -19,7 +19,7 @@ import numpy as np
 from ._require import mujoco
 from .gripper import gripper
 from .project import CHIP, TOFU, PinchConfig, demonstrate, pinch
-from .robot import MujocoArm, MujocoHand, MujocoWorld, open_gap_mm
+from .robot import HAND_UNIT, MujocoArm, MujocoHand, MujocoWorld, open_gap_mm
 
 log = logging.getLogger(__name__)
 
@@ -27,7 +27,6 @@ OBJECTS = {"tofu": (TOFU, 0.5, 0.05, 0.015, 0.025),
            "chip": (CHIP, 0.1, 0.005, 0.001, 0.034)}
 """Object -> (spec, the paper's firmness (N), closing step (mm), half width (m), top (m))."""
 DEMO_SEED_OFFSET = 100_000
-HAND_SEED = 100
 ARM_DOWN_MM = -100.0 + 4.0
 """From home, the fingertips' roof 6 mm below the top of a 25 mm object."""
 
@@ -76,7 +75,7 @@ def pinch_trial(name: str, f_th_n: float, seed: int) -> dict:
     gap = open_gap_mm(half_width)
     start = {"left": gap - dy * 1e3 - float(rng.uniform(0.3, 1.3)),
              "right": gap + dy * 1e3 - float(rng.uniform(0.3, 1.3))}
-    seeds = {"left": HAND_SEED, "right": HAND_SEED + 1}
+    seeds = {"left": HAND_UNIT, "right": HAND_UNIT + 1}
     scene = gripper((name,))
     world = MujocoWorld(scene, seeds, start_mm=start)
     _place(world, name, dy)

@@ -91,12 +91,14 @@ class PiezoStream:
 
     # --- rendering -------------------------------------------------------------------------
 
-    def render(self) -> list[Block]:
-        """Render every whole block the pushed steps cover; returns the new blocks."""
+    def render(self, upto_s: float | None = None) -> list[Block]:
+        """Render every whole block the pushed steps cover (up to ``upto_s`` if given: the
+        caller may still add impacts before the latest step); returns the new blocks."""
         new: list[Block] = []
         if not self._t:
             return new
-        while (self.next_sample + self.block) / self.fs <= self._t[-1]:
+        end = self._t[-1] if upto_s is None else min(upto_s, self._t[-1])
+        while (self.next_sample + self.block) / self.fs <= end:
             new.append(self._render_block())
         self.blocks.extend(new)
         return new

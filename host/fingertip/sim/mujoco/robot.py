@@ -23,6 +23,9 @@ from .scenes import Scene
 from .sensor import FingertipSensor
 
 TARE_CONVERSIONS = 16
+HAND_UNIT = 100
+"""The left fingertip's virtual unit; the right one is the next (the virtual world's hand
+starts at the same seed)."""
 TRAVEL_MM = 40.0
 FINGER_ACTUATOR = {"left": 3, "right": 4}
 ARM_ACTUATORS = (0, 1, 2)

@@ -19,9 +19,12 @@ from ._require import mujoco
 from .attach import AttachedFingertip, attach_fingertip, geometry
 from .project import PAPER_SEVEN, material_named
 
-PLATE_HALF = (0.04, 0.03, 0.004)
-"""Half sizes of one material plate (m): 8 x 6 cm, 8 mm thick."""
-PLATE_PITCH = 0.07
+PLATE_HALF = (0.04, 0.06, 0.004)
+"""Half sizes of one material plate (m): 8 x 12 cm, 8 mm thick."""
+PLATE_PITCH = 0.09
+LATERAL_KP = 20000.0
+"""The probe's horizontal servos (N/m): stiff, as a Cartesian robot's axes are; a soft one
+(2000 N/m) stick-slips against the nail's friction."""
 CAP_DOWN = (0.0, 1.0, 0.0, 0.0)
 """The fingertip's +z down, its nail towards +x."""
 NAIL_DOWN = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)
@@ -81,6 +84,7 @@ def probe_xml(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
     top = 2 * PLATE_HALF[2]
     start = top - lowest_z(quat) + 0.01
     kv = 2 * (kp * 0.2) ** 0.5  # critically damped for the probe's 0.2 kg
+    kv_xy = 2 * (LATERAL_KP * 0.2) ** 0.5
     return f"""
 <mujoco model="fingertip_probe">
   <option timestep="{timestep}" cone="elliptic" impratio="10"/>
@@ -97,8 +101,8 @@ def probe_xml(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
     </body>
   </worldbody>
   <actuator>
-    <position name="ax" joint="px" kp="{kp * 4}" kv="{kv * 2}" ctrlrange="-1 1"/>
-    <position name="ay" joint="py" kp="{kp * 4}" kv="{kv * 2}" ctrlrange="-1 1"/>
+    <position name="ax" joint="px" kp="{LATERAL_KP}" kv="{kv_xy}" ctrlrange="-1 1"/>
+    <position name="ay" joint="py" kp="{LATERAL_KP}" kv="{kv_xy}" ctrlrange="-1 1"/>
     <position name="az" joint="pz" kp="{kp}" kv="{kv}" ctrlrange="-1 1"/>
   </actuator>
 </mujoco>"""
@@ -110,7 +114,7 @@ def probe(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
     :data:`NAIL_DOWN` presents the nail; :data:`EDGE_DOWN` the cap's edge above the nail).
 
     Controls: ``data.ctrl[0:3]`` = probe offsets (m) from its start in x, y, z. The skin's
-    lowest point starts 10 mm above the plates; plate ``i`` is centred at x = i * 7 cm.
+    lowest point starts 10 mm above the plates; plate ``i`` is centred at x = i * 9 cm.
     """
     mj = mujoco()
     spec = mj.MjSpec.from_string(probe_xml(materials, timestep, kp, quat))

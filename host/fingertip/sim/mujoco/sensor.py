@@ -48,6 +48,9 @@ NAIL_RELEASE_S, SKIN_RELEASE_S = 5e-4, 2e-3
 IMPACT_N_PER_MM_S = 0.004
 """Make transient per approach speed (the virtual fingertip's scenes: 0.12 N at 30 mm/s)."""
 RELEASE_FRACTION = 0.35
+DEBOUNCE_S = 0.02
+"""A contact gap shorter than this is MuJoCo's flicker of a sliding contact, not a release
+(the piezo renders this much behind the physics, so a release lands where it began)."""
 _ZERO3 = np.zeros(3)
 _ZERO3.flags.writeable = False
 
@@ -59,9 +62,13 @@ class Reading:
     t: float
     """Simulation time of the conversion (s)."""
     force_n: np.ndarray
-    """Mean force on the fingertip over the conversion, its frame (x: the nail's side)."""
+    """MuJoCo's mean contact force on the fingertip over the conversion, its frame (x: the
+    nail's side): the truth."""
     height_mm: float
     """Where the force acts: millimetres below the nail tip (0 without contact)."""
+    cap_force_n: np.ndarray | None = None
+    """The force that reaches the cap through the skin (relaxed when ``realism.skin``): what
+    the strain model bends the prism with."""
     counts: np.ndarray | None = None
     """(4,) int64 HX711 counts (``strain``, ``full``)."""
     raw: np.ndarray | None = None
@@ -127,7 +134,9 @@ class FingertipSensor:
         self._touching_steps = 0
         self._pending: list[tuple[float, np.ndarray, float]] = []
         self._ready: list[Reading] = []
-        self._was_touching = False
+        self._contact = False
+        self._gap_since: float | None = None
+        self._held = Touch()
         self._last_make = (0.0, True)
 
     # --- per physics step ------------------------------------------------------------------
@@ -149,20 +158,32 @@ class FingertipSensor:
     def _sound(self, touching: bool) -> None:
         t = self.d.time
         touch = self.reader.touch() if touching else Touch()
+        if touch.found and touch.normal_n > 0:
+            if not self._contact:  # a make after a real separation
+                amp = IMPACT_N_PER_MM_S * touch.approach_mm_s * (1.0 if touch.nail else 0.4)
+                back = touch.depth_m / max(touch.approach_mm_s * 1e-3, 1e-6)
+                self.piezo.impact(max(t - back, t - self.m.opt.timestep), amp,
+                                  NAIL_IMPACT_S if touch.nail else SKIN_IMPACT_S)
+                self._last_make = (amp, touch.nail)
+                self._contact = True
+            self._gap_since = None
+            self._held = touch
+        elif self._contact:
+            # A sliding contact flickers in MuJoCo (micrometre separations for a few steps):
+            # hold the last contact through gaps shorter than DEBOUNCE_S; a longer one is a
+            # release, placed where the gap began.
+            if self._gap_since is None:
+                self._gap_since = t
+            if t - self._gap_since < DEBOUNCE_S:
+                touch = self._held
+            else:
+                amp, nail = self._last_make
+                self.piezo.impact(self._gap_since, -RELEASE_FRACTION * amp,
+                                  NAIL_RELEASE_S if nail else SKIN_RELEASE_S)
+                self._contact = False
         mat = self._mat[touch.other_geom] if touch.found else None
-        if touch.found and not self._was_touching:
-            amp = IMPACT_N_PER_MM_S * touch.approach_mm_s * (1.0 if touch.nail else 0.4)
-            back = touch.depth_m / max(touch.approach_mm_s * 1e-3, 1e-6)
-            self.piezo.impact(max(t - back, t - self.m.opt.timestep), amp,
-                              NAIL_IMPACT_S if touch.nail else SKIN_IMPACT_S)
-            self._last_make = (amp, touch.nail)
-        elif self._was_touching and not touch.found:
-            amp, nail = self._last_make
-            self.piezo.impact(t, -RELEASE_FRACTION * amp,
-                              NAIL_RELEASE_S if nail else SKIN_RELEASE_S)
-        self._was_touching = touch.found
         self.piezo.push(t, touch.slip_mm_s, touch.normal_n, mat, touch.nail)
-        self.piezo.render()
+        self.piezo.render(t - DEBOUNCE_S)
 
     def _convert(self) -> None:
         r = self.reader
@@ -188,16 +209,17 @@ class FingertipSensor:
         f = np.array([p[1] for p in self._pending])
         h = np.array([p[2] for p in self._pending])
         self._pending = []
-        f = self._relax(t, f)
+        cap = self._relax(t, f)
         if self.strain is None:
-            self._ready.extend(Reading(ti, fi, hi) for ti, fi, hi in zip(t, f, h, strict=True))
+            self._ready.extend(Reading(ti, fi, hi, ci) for ti, fi, hi, ci
+                               in zip(t, f, h, cap, strict=True))
             return
         # The strain model's axial force is compressive-positive: the cap pushed down (-z).
-        raw = self.strain.raw_counts_batch(f[:, :2], h, t, -f[:, 2])
+        raw = self.strain.raw_counts_batch(cap[:, :2], h, t, -cap[:, 2])
         hx = self.params.hx711
         counts = np.clip(np.rint(raw), hx.count_min, hx.count_max).astype(np.int64)
-        self._ready.extend(Reading(ti, fi, hi, ci, ri)
-                           for ti, fi, hi, ci, ri in zip(t, f, h, counts, raw, strict=True))
+        self._ready.extend(Reading(ti, fi, hi, ci, ni, ri) for ti, fi, hi, ci, ni, ri
+                           in zip(t, f, h, cap, counts, raw, strict=True))
 
     def _relax(self, t: np.ndarray, f: np.ndarray) -> np.ndarray:
         if not len(self._skin_g):
