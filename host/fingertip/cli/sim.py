@@ -23,11 +23,7 @@ log = logging.getLogger("fingertip")
 
 def _cmd_sim_device(args: argparse.Namespace) -> int:
     """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
-    import signal
-    import threading
-
     from ..sim import VirtualFirmware
-    from ..sim.pty_device import PtyDevice
     from ..sim.physics import Idle, VirtualStrainSensor
 
     if args.fault:
@@ -46,10 +42,20 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
         scene = Idle(duration=1e9)
         source = VirtualStrainSensor(args.seed).as_source(scene)
         fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    return _serve(fw, args.link, "virtual fingertip")
+
+
+def _serve(fw, link: str | None, what: str) -> int:
+    """Serve ``fw`` on a pty until Ctrl-C or SIGTERM."""
+    import signal
+    import threading
+
+    from ..sim.pty_device import PtyDevice
+
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with PtyDevice(fw, link=args.link) as dev:
-        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+    with PtyDevice(fw, link=link) as dev:
+        print(f"{what} on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
         try:
             while not stop.wait(0.2):
                 pass
@@ -62,16 +68,12 @@ def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
     """Serve one fingertip of a MuJoCo scene on a pty through the virtual device (the
     firmware's C++ core): `fingertip stream`, `record`, `check` and `publish` read it as a
     fingertip. Needs the mujoco extra."""
-    import signal
-    import threading
-
     try:
         from ..sim.mujoco.live import SCENES, LiveSimulation
     except ImportError as e:
         log.error("%s", e)
         return 2
     from ..sim import VirtualFirmware
-    from ..sim.pty_device import PtyDevice
 
     if args.scene not in SCENES:
         log.error("unknown scene %r: one of %s", args.scene, ", ".join(SCENES))
@@ -93,17 +95,8 @@ def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
         return 0
     live = LiveSimulation(args.scene, seed=args.seed)
     fw = VirtualFirmware(4, source=live.counts_source())
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with PtyDevice(fw, link=args.link) as dev:
-        print(f"MuJoCo scene {args.scene!r} ({SCENES[args.scene].what}): fingertip on "
-              f"{dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
-        try:
-            while not stop.wait(0.2):
-                pass
-        except KeyboardInterrupt:
-            pass
-    return 0
+    return _serve(fw, args.link, f"MuJoCo scene {args.scene!r} ({SCENES[args.scene].what}): "
+                                 "fingertip")
 
 
 def _cmd_sim_faults(args: argparse.Namespace) -> int:

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._require import mujoco
-from .attach import attach_fingertip, geometry
+from .attach import attach_fingertip
 from .project import CHIP, TOFU
-from .scenes import Scene
+from .scenes import Scene, header
 
 FINGER_OPEN_Y = 0.045
 """Each fingertip's axis from the palm's centre when open (m)."""
@@ -97,14 +97,8 @@ def gripper_xml(objects: tuple[str, ...] = ("tofu",), timestep: float = 0.002) -
             raise ValueError(f"unknown object {name!r}: one of tofu, chip")
         welds.append(f'<weld name="{name}_weld" body1="{name}_a" body2="{name}_b"/>')
         excludes.append(f'<exclude body1="{name}_a" body2="{name}_b"/>')
-    lo = geometry().top_z
     z0 = ARM_HOME_Z
-    return f"""
-<mujoco model="fingertip_gripper">
-  <option timestep="{timestep}" cone="elliptic" impratio="10"/>
-  <worldbody>
-    <light pos="0 0 1" dir="0 0 -1"/>
-    <geom name="table" type="plane" size="1 1 0.05" rgba="0.7 0.7 0.72 1"/>
+    return header("fingertip_gripper", timestep, "table") + f"""
     {"".join(bodies)}
     <body name="arm" pos="0 0 {z0}" gravcomp="1">
       <joint name="arm_x" type="slide" axis="1 0 0" damping="20"/>
@@ -132,7 +126,6 @@ def gripper_xml(objects: tuple[str, ...] = ("tofu",), timestep: float = 0.002) -
     <position name="left" joint="left" kp="{FINGER_KP}" kv="8" ctrlrange="0 0.04"/>
     <position name="right" joint="right" kp="{FINGER_KP}" kv="8" ctrlrange="0 0.04"/>
   </actuator>
-  <custom><numeric name="fingertip_top_z" data="{lo}"/></custom>
 </mujoco>"""
 
 

@@ -61,6 +61,17 @@ def _plates_xml(materials: tuple[str, ...]) -> str:
     return "\n".join(out)
 
 
+def header(model: str, timestep: float, ground: str) -> str:
+    """The opening of a scene's MJCF: options (elliptic cones: clean friction forces), a
+    light and the ground plane named ``ground``."""
+    return f"""
+<mujoco model="{model}">
+  <option timestep="{timestep}" cone="elliptic" impratio="10"/>
+  <worldbody>
+    <light pos="0 0 1" dir="0 0 -1"/>
+    <geom name="{ground}" type="plane" size="1 1 0.05" rgba="0.75 0.75 0.77 1"/>"""
+
+
 def lowest_z(quat: tuple[float, float, float, float]) -> float:
     """The lowest point of a fingertip turned by ``quat`` (w, x, y, z), relative to its
     frame's origin (m): the corners of its skin and nail boxes."""
@@ -85,12 +96,7 @@ def probe_xml(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
     start = top - lowest_z(quat) + 0.01
     kv = 2 * (kp * 0.2) ** 0.5  # critically damped for the probe's 0.2 kg
     kv_xy = 2 * (LATERAL_KP * 0.2) ** 0.5
-    return f"""
-<mujoco model="fingertip_probe">
-  <option timestep="{timestep}" cone="elliptic" impratio="10"/>
-  <worldbody>
-    <light pos="0 0 1" dir="0 0 -1"/>
-    <geom name="floor" type="plane" size="1 1 0.05" rgba="0.8 0.8 0.8 1"/>
+    return header("fingertip_probe", timestep, "floor") + f"""
     {_plates_xml(materials)}
     <body name="probe" pos="0 0 {start:.4f}" gravcomp="1">
       <joint name="px" type="slide" axis="1 0 0" damping="2"/>
