@@ -29,6 +29,9 @@ CAP_DOWN = (0.0, 1.0, 0.0, 0.0)
 """The fingertip's +z down, its nail towards +x."""
 NAIL_DOWN = (math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0)
 """The fingertip's +x (the nail) down, its +z along +x."""
+SIDE_DOWN = (math.cos(-math.pi / 4), 0.0, math.sin(-math.pi / 4), 0.0)
+"""The face opposite the nail (channel 2's) down, the fingertip's +z along -x: the side
+the force model is calibrated on (forces at 0 +- 50 degrees in its frame)."""
 EDGE_DOWN = (math.cos(3 * math.pi / 8), 0.0, math.sin(3 * math.pi / 8), 0.0)
 """Half-way: the edge between the cap's roof and its nail side down."""
 
@@ -49,8 +52,9 @@ def plate_geom(name: str) -> str:
     return f"plate_{name}"
 
 
-def _plates_xml(materials: tuple[str, ...]) -> str:
+def _plates_xml(materials: tuple[str, ...], rail_half_x: float | None = None) -> str:
     hx, hy, hz = PLATE_HALF
+    hx = rail_half_x or hx
     out = []
     for i, name in enumerate(materials):
         mat = material_named(name)
@@ -90,14 +94,15 @@ def lowest_z(quat: tuple[float, float, float, float]) -> float:
 
 
 def probe_xml(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
-              kp: float = 500.0, quat: tuple[float, float, float, float] = CAP_DOWN) -> str:
+              kp: float = 500.0, quat: tuple[float, float, float, float] = CAP_DOWN,
+              rail_half_x: float | None = None) -> str:
     """The probe scene's MJCF (the fingertip is attached by :func:`probe`)."""
     top = 2 * PLATE_HALF[2]
     start = top - lowest_z(quat) + 0.01
     kv = 2 * (kp * 0.2) ** 0.5  # critically damped for the probe's 0.2 kg
     kv_xy = 2 * (LATERAL_KP * 0.2) ** 0.5
     return header("fingertip_probe", timestep, "floor") + f"""
-    {_plates_xml(materials)}
+    {_plates_xml(materials, rail_half_x)}
     <body name="probe" pos="0 0 {start:.4f}" gravcomp="1">
       <joint name="px" type="slide" axis="1 0 0" damping="2"/>
       <joint name="py" type="slide" axis="0 1 0" damping="2"/>
@@ -115,15 +120,18 @@ def probe_xml(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
 
 
 def probe(materials: tuple[str, ...] = PAPER_SEVEN, timestep: float = 0.002,
-          kp: float = 500.0, quat: tuple[float, float, float, float] = CAP_DOWN) -> Scene:
+          kp: float = 500.0, quat: tuple[float, float, float, float] = CAP_DOWN,
+          rail_half_x: float | None = None) -> Scene:
     """One fingertip on the probe, turned by ``quat`` (default: cap down, nail towards +x;
-    :data:`NAIL_DOWN` presents the nail; :data:`EDGE_DOWN` the cap's edge above the nail).
+    :data:`NAIL_DOWN` presents the nail; :data:`EDGE_DOWN` the cap's edge above the nail;
+    :data:`SIDE_DOWN` the face opposite the nail). ``rail_half_x``: each plate is a rail
+    this narrow (half width, m) along y, so that only a band of a flat face touches it.
 
     Controls: ``data.ctrl[0:3]`` = probe offsets (m) from its start in x, y, z. The skin's
     lowest point starts 10 mm above the plates; plate ``i`` is centred at x = i * 9 cm.
     """
     mj = mujoco()
-    spec = mj.MjSpec.from_string(probe_xml(materials, timestep, kp, quat))
+    spec = mj.MjSpec.from_string(probe_xml(materials, timestep, kp, quat, rail_half_x))
     tip = attach_fingertip(spec, "probe", "tip", quat=quat)
     spec.body("tip").gravcomp = 1.0  # the probe's servo carries the fingertip's weight too
     model = spec.compile()
