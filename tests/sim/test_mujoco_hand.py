@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import mujoco
 import numpy as np
@@ -78,3 +79,12 @@ def test_attaching_by_a_wrong_body_name_adds_nothing():
     with pytest.raises(ValueError, match="no body 'f9_distal' in the model"):
         attach_fingertips(spec, ["f0_distal", "f9_distal"])
     assert len(spec.bodies) == n
+
+
+def test_without_the_extra_one_line_says_which_to_install(monkeypatch):
+    from fingertip.sim.mujoco import _require
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # as if `pip install mujoco` never ran
+    with pytest.raises(ImportError) as e:
+        _require.mujoco()
+    assert str(e.value) == "MuJoCo is not installed: pip install 'fingertip[mujoco]'"
