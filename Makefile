@@ -27,8 +27,10 @@ APT_SIM := simavr libsimavr-dev libelf-dev
 APT_AUDIO := libportaudio2 pulseaudio pulseaudio-utils libasound2-plugins
 # clang with libFuzzer and the sanitizer runtimes, for the firmware fuzzers (firmware/fuzz).
 APT_FUZZ := clang libclang-rt-14-dev
+# Mesa's EGL for MuJoCo's headless rendering (MUJOCO_GL=egl, `--render`).
+APT_RENDER := libegl1 libegl-mesa0 libgl1-mesa-dri
 APT_PACKAGES := $(APT_BUILD) $(APT_PYTHON) $(APT_FIRMWARE) $(APT_NATIVE_TESTS) $(APT_SIM) \
-                $(APT_AUDIO) $(APT_FUZZ)
+                $(APT_AUDIO) $(APT_FUZZ) $(APT_RENDER)
 
 PYTEST_ARGS ?=
 

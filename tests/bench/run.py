@@ -25,7 +25,7 @@ from tests.bench.machine import describe  # noqa: E402
 
 BENCHES = ["decode", "firmware", "bridge", "align", "sim", "force", "classify", "events",
            "tasks", "reflex", "network", "realism", "check", "fuzz", "vibration", "hand",
-           "robustness"]
+           "robustness", "mujoco"]
 OPTIONAL = ["soak"]
 """Run only when named (`make soak`): too long for a default run."""
 JSON_OUT = ROOT / "docs" / "benchmarks.json"

@@ -1,5 +1,5 @@
-"""``fingertip sim device | faults | dataset``: the virtual fingertip on a pty, its build
-faults, and datasets from it.
+"""``fingertip sim device | mujoco | faults | dataset``: the virtual fingertip on a pty (alone
+or in a MuJoCo scene), its build faults, and datasets from it.
 
 :func:`add_group` adds ``fingertip sim`` with all three; :func:`add_parsers` adds ``dataset``
 to the subparsers of ``fingertip sim``. Handlers return
@@ -23,12 +23,8 @@ log = logging.getLogger("fingertip")
 
 def _cmd_sim_device(args: argparse.Namespace) -> int:
     """Serve a virtual fingertip (the firmware's device logic, host build) on a pty."""
-    import signal
-    import threading
-
     from ..sim import VirtualFirmware
     from ..sim.physics import Idle, VirtualStrainSensor
-    from ..sim.device.pty_device import PtyDevice
 
     if args.fault:
         from ..sim.device.bringup import VirtualUnit
@@ -46,16 +42,61 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
         scene = Idle(duration=1e9)
         source = VirtualStrainSensor(args.seed).as_source(scene)
         fw = VirtualFirmware(args.channels, source=source if args.channels == 4 else None)
+    return _serve(fw, args.link, "virtual fingertip")
+
+
+def _serve(fw, link: str | None, what: str) -> int:
+    """Serve ``fw`` on a pty until Ctrl-C or SIGTERM."""
+    import signal
+    import threading
+
+    from ..sim.device.pty_device import PtyDevice
+
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with PtyDevice(fw, link=args.link) as dev:
-        print(f"virtual fingertip on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
+    with PtyDevice(fw, link=link) as dev:
+        print(f"{what} on {dev.link or dev.port}  (Ctrl-C to stop)", flush=True)
         try:
             while not stop.wait(0.2):
                 pass
         except KeyboardInterrupt:
             pass
     return 0
+
+
+def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
+    """Serve one fingertip of a MuJoCo scene on a pty through the virtual device (the
+    firmware's C++ core): `fingertip stream`, `record`, `check` and `publish` read it as a
+    fingertip. Needs the mujoco extra."""
+    try:
+        from ..sim.mujoco.live import SCENES, LiveSimulation
+    except ImportError as e:
+        log.error("%s", e)
+        return 2
+    from ..sim import VirtualFirmware
+
+    if args.scene not in SCENES:
+        log.error("unknown scene %r: one of %s", args.scene, ", ".join(SCENES))
+        return 2
+    if args.render or args.view:
+        from ..sim.mujoco.render import render_run, view
+
+        if args.view:
+            try:
+                view(args.scene, args.seconds, seed=args.seed)
+            except RuntimeError as e:
+                log.error("%s", e)
+                return 2
+            return 0
+        r = render_run(args.scene, args.render, seconds=args.seconds or 6.0, fps=args.fps,
+                       seed=args.seed)
+        print(f"wrote {r.frames} frames, {r.readings} readings and {r.audio_s:.1f} s of piezo "
+              f"to {r.out} (summary.png, counts.csv, frames/)")
+        return 0
+    live = LiveSimulation(args.scene, seed=args.seed)
+    fw = VirtualFirmware(4, source=live.counts_source())
+    return _serve(fw, args.link, f"MuJoCo scene {args.scene!r} ({SCENES[args.scene].what}): "
+                                 "fingertip")
 
 
 def _cmd_sim_faults(args: argparse.Namespace) -> int:
@@ -189,6 +230,25 @@ def add_group(sub) -> None:
     sd.add_argument("--fault", action="append", metavar="NAME[:CH]",
                     help="a build fault (repeatable): " + ", ".join(FAULTS))
     sd.set_defaults(func=_cmd_sim_device)
+    sj = smsub.add_parser("mujoco", help="serve a fingertip of a MuJoCo scene on a "
+                                         "pseudo-terminal (needs the mujoco extra)",
+                          description=_cmd_sim_mujoco.__doc__)
+    sj.add_argument("--scene", default="slide", metavar="NAME",
+                    help="slide (a probe over the seven materials, default) or pinch (a "
+                         "gripper and the tofu)")
+    sj.add_argument("--link", help="also make this path a symlink to the pty")
+    sj.add_argument("--seed", type=int, default=0, help="which virtual unit (its variation)")
+    sj.add_argument("--render", metavar="DIR",
+                    help="instead of serving: run the scene headless and write PNG frames, "
+                         "counts.csv and summary.png (counts, force, spectrogram) to DIR")
+    sj.add_argument("--view", action="store_true",
+                    help="instead of serving: MuJoCo's passive viewer (needs a display)")
+    sj.add_argument("--seconds", type=number(float, 0.1, 3600.0), metavar="S",
+                    help="length of a --render run (default 6) or a --view (default: until "
+                         "closed)")
+    sj.add_argument("--fps", type=number(float, 1.0, 60.0), default=20.0,
+                    help="frames per simulated second of --render (default 20)")
+    sj.set_defaults(func=_cmd_sim_mujoco)
     sf = smsub.add_parser("faults", help="list the build faults the simulator can add",
                           description=_cmd_sim_faults.__doc__)
     sf.set_defaults(func=_cmd_sim_faults)

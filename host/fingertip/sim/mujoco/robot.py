@@ -1,0 +1,218 @@
+"""``RobotHand`` and ``RobotArm`` on the MuJoCo gripper, so the recipes of ``tasks/`` run
+unchanged on real rigid-body dynamics.
+
+Time is simulated: :meth:`MujocoHand.read` steps the physics until every fingertip has made
+its next HX711 conversion (80 SPS) and returns one :class:`Frame` per finger, its counts tared
+as the device tares them (the mean of the first conversions, fingers open). Each fingertip is
+a virtual unit with its own seed and the force model fitted on that unit's calibration sweep
+(the same cached fit as the virtual world's hand). The arm's motions (``slide_z``, ``shake``)
+are targets of its position servos that move while the recipe reads frames.
+"""
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+
+import numpy as np
+
+from ._require import mujoco
+from .gripper import FINGER_OPEN_Y
+from .project import AudioBlock, Frame, FrameSet, RobotArm, RobotHand, unit_force_model
+from .scenes import Scene
+from .sensor import FingertipSensor
+
+TARE_CONVERSIONS = 16
+HAND_UNIT = 100
+"""The left fingertip's virtual unit; the right one is the next (the virtual world's hand
+starts at the same seed)."""
+TRAVEL_MM = 40.0
+FINGER_ACTUATOR = {"left": 3, "right": 4}
+ARM_ACTUATORS = (0, 1, 2)
+
+
+class MujocoWorld:
+    """A gripper scene with its sensors, the motion targets and the step loop."""
+
+    def __init__(self, scene: Scene, unit_seeds: Mapping[str, int], *,
+                 fidelity: str = "strain", start_mm: Mapping[str, float] | None = None,
+                 **sensor_options) -> None:
+        self.scene = scene
+        self.m, self.d = scene.model, scene.data
+        self.breakables = scene.info["breakables"]
+        self.sensors = {f: FingertipSensor(self.m, self.d, scene.tips[f], fidelity=fidelity,
+                                           seed=unit_seeds[f], batch=1, **sensor_options)
+                        for f in FINGER_ACTUATOR}
+        # Where each finger's travel counts from (the hand placed close to the object).
+        self.start_mm = dict(start_mm or dict.fromkeys(FINGER_ACTUATOR, 0.0))
+        self.targets_mm = dict.fromkeys(FINGER_ACTUATOR, 0.0)
+        self.speeds_mm_s = dict.fromkeys(FINGER_ACTUATOR, 0.0)
+        self.arm_target = np.zeros(3)
+        self.slide: tuple[float, float] | None = None
+        self.shake: tuple[float, float, float, float, float] | None = None
+        self.z_log: list[tuple[float, float]] = []
+        self.latest: dict[str, object] = {}
+        self._apply()
+
+    def _apply(self) -> None:
+        for f, a in FINGER_ACTUATOR.items():
+            self.d.ctrl[a] = (self.start_mm[f] + self.targets_mm[f]) * 1e-3
+        self.d.ctrl[list(ARM_ACTUATORS)] = self.arm_target
+
+    def _motion(self, dt: float) -> None:
+        for f, v in self.speeds_mm_s.items():
+            if v:
+                self.targets_mm[f] = min(max(self.targets_mm[f] + v * dt, 0.0), TRAVEL_MM)
+        if self.slide is not None:
+            target, speed = self.slide
+            z = self.arm_target[2]
+            step = math.copysign(min(abs(target - z), speed * 1e-3 * dt), target - z)
+            self.arm_target[2] = z + step
+            if abs(target - self.arm_target[2]) < 1e-12:
+                self.slide = None
+        if self.shake is not None:
+            t0, x0, amp, hz, dur = self.shake
+            u = self.d.time - t0
+            if u >= dur:
+                self.arm_target[0] = x0
+                self.shake = None
+            else:
+                self.arm_target[0] = x0 + amp * 1e-3 * math.sin(2 * math.pi * hz * u)
+        self._apply()
+
+    def step(self) -> None:
+        """One physics step with every sensor and the objects' breaking."""
+        self._motion(self.m.opt.timestep)
+        mujoco().mj_step(self.m, self.d)
+        for s in self.sensors.values():
+            s.step()
+        self.breakables.update(self.d)
+        self.z_log.append((self.d.time, float(self.arm_target[2] * 1e3)))
+
+    def next_readings(self) -> dict:
+        """Step until every fingertip has a new conversion; the latest of each."""
+        got: dict = {}
+        while len(got) < len(self.sensors):
+            self.step()
+            for f, s in self.sensors.items():
+                rs = s.readings()
+                if rs:
+                    got[f] = rs[-1]
+        self.latest = got
+        return got
+
+
+class MujocoHand(RobotHand):
+    """The gripper's two fingers (``left``, ``right``), one virtual fingertip each."""
+
+    def __init__(self, world: MujocoWorld, unit_seeds: Mapping[str, int]) -> None:
+        self.world = world
+        self._models = {f: unit_force_model(unit_seeds[f]) for f in FINGER_ACTUATOR}
+        tares = [world.next_readings() for _ in range(TARE_CONVERSIONS)]
+        self._tares = {f: np.mean([r[f].counts for r in tares], axis=0)
+                       for f in FINGER_ACTUATOR}
+        self._seq = 0
+        self._audio_t = dict.fromkeys(FINGER_ACTUATOR, world.d.time)
+
+    @property
+    def fingers(self) -> list[str]:
+        return list(FINGER_ACTUATOR)
+
+    def step(self, increments_mm: Mapping[str, float]) -> None:
+        w = self.world
+        for f, inc in increments_mm.items():
+            w.targets_mm[f] = min(max(w.targets_mm[f] + float(inc), 0.0), TRAVEL_MM)
+        w._apply()
+
+    def move(self, speeds_mm_s: Mapping[str, float]) -> None:
+        for f, v in speeds_mm_s.items():
+            self.world.speeds_mm_s[f] = float(v)
+
+    def positions(self) -> dict[str, float]:
+        return dict(self.world.targets_mm)
+
+    def force_model(self, finger: str):
+        return self._models[finger]
+
+    def read(self, timeout: float = 0.5) -> FrameSet | None:
+        rs = self.world.next_readings()
+        self._seq += 1
+        now = time.monotonic()
+        return {f: Frame(seq=self._seq, device_time_us=int(round(r.t * 1e6)), host_time=r.t,
+                         arrival_time=now,
+                         counts=tuple(int(v) for v in np.rint(r.counts - self._tares[f])))
+                for f, r in rs.items()}
+
+    def read_audio(self, finger: str) -> AudioBlock:
+        s = self.world.sensors[finger]
+        blocks = s.audio()
+        if not blocks:
+            return AudioBlock(np.zeros(0, np.float32), 44100.0, self._audio_t[finger])
+        samples = np.concatenate([b.samples for b in blocks])
+        out = AudioBlock(samples, float(blocks[0].fs), blocks[0].t0)
+        self._audio_t[finger] = out.t_end
+        return out
+
+
+class MujocoArm(RobotArm):
+    """The gantry arm: targets of its servos in mm from its home position."""
+
+    SETTLE_MM = 0.2
+    SETTLE_TIMEOUT_S = 5.0
+
+    def __init__(self, world: MujocoWorld) -> None:
+        self.world = world
+        self._qadr = [int(world.m.jnt_qposadr[world.m.actuator_trnid[a, 0]])
+                      for a in ARM_ACTUATORS]
+
+    def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
+        w = self.world
+        w.arm_target[:] = np.array([x_mm, y_mm, z_mm]) * 1e-3
+        w.slide = w.shake = None
+        w._apply()
+        t_end = w.d.time + self.SETTLE_TIMEOUT_S
+        while np.abs(self._actual() - w.arm_target).max() * 1e3 > self.SETTLE_MM:
+            if w.d.time > t_end:
+                raise RuntimeError(f"the arm did not reach {x_mm, y_mm, z_mm} mm")
+            w.step()
+
+    def _actual(self) -> np.ndarray:
+        return np.array([self.world.d.qpos[a] for a in self._qadr])
+
+    def position(self) -> tuple[float, float, float]:
+        x, y, z = self._actual() * 1e3
+        return (float(x), float(y), float(z))
+
+    def slide_z(self, dz_mm: float, speed_mm_s: float) -> None:
+        if speed_mm_s <= 0:
+            raise ValueError("speed must be > 0")
+        w = self.world
+        w.slide = (w.arm_target[2] + dz_mm * 1e-3, speed_mm_s)
+
+    def shake(self, amplitude_mm: float, frequency_hz: float, duration_s: float) -> None:
+        if amplitude_mm <= 0 or frequency_hz <= 0 or duration_s <= 0:
+            raise ValueError("amplitude, frequency and duration must be > 0")
+        w = self.world
+        w.shake = (w.d.time, float(w.arm_target[0]), amplitude_mm, frequency_hz, duration_s)
+
+    def moving(self) -> bool:
+        return self.world.slide is not None or self.world.shake is not None
+
+    def stop(self) -> None:
+        """Hold where the arm is now."""
+        w = self.world
+        w.slide = w.shake = None
+        w.arm_target[:] = self._actual()
+        w._apply()
+
+    def z_history(self, since: float) -> tuple[np.ndarray, np.ndarray]:
+        log = [e for e in self.world.z_log if e[0] >= since]
+        a = np.array(log, float).reshape(-1, 2)
+        return a[:, 0].copy(), a[:, 1].copy()
+
+
+def open_gap_mm(object_half_width_m: float) -> float:
+    """Closing travel from open to touching an object of this half width, centred (mm)."""
+    from .attach import geometry
+
+    return (FINGER_OPEN_Y - geometry().half_width - object_half_width_m) * 1e3

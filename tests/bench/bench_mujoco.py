@@ -1,0 +1,306 @@
+"""The fingertip as a MuJoCo sensor: what each fidelity costs, and how fast a gripper runs.
+
+- ``mujoco_sensor_us_per_step_<fidelity>``: CPU microseconds one fingertip's sensor adds to
+  each physics step (2 ms), measured on the probe pressing and sliding over coarse fabric
+  (contacts every step after the touch): the same scene stepped with and without the sensor,
+  side by side in one run (median of repeats, interleaved), the difference per step.
+- ``mujoco_step_us_probe``: the physics step itself in that scene (MuJoCo, no sensor).
+- ``mujoco_realtime_factor_full``: simulated seconds per wall second of the gripper scene
+  (arm, two fingers, two fingertips at ``full``: counts and audio, the tofu pinched, lifted),
+  everything included (control, steps, sensors, breaking); the CPU time of this process
+  (one core), so that other load on a shared machine does not count.
+
+- ``mujoco_force_rmse_n``: a unit's calibrated force model against MuJoCo's contact force
+  over a pinch and a slide, beside the same model on a later sweep of its own virtual unit.
+- ``mujoco_material_accuracy``: the material classifier trained on today's simulated slides,
+  tested on the nail sliding over the MuJoCo plates.
+- ``mujoco_pinch_success`` (of 50: the paper's 25 tofu + 25 chip) on the MuJoCo gripper with
+  the recipe of ``tasks/pinch.py`` unchanged, beside ``mujoco_pinch_world_success``, the same
+  recipe, thresholds and seeds in today's virtual world (``sim/experiment.py``), in this run.
+
+Single thread, pinned to one core where possible.
+"""
+from __future__ import annotations
+
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from fingertip.sim import experiment as world_experiment
+from fingertip.sim.mujoco import FIDELITIES, FingertipSensor
+from fingertip.sim.mujoco import experiment as mujoco_experiment
+from fingertip.sim.mujoco.drive import press_and_slide
+from fingertip.sim.mujoco.drive import run as step_scene
+from fingertip.models.force.calibration.evaluate import rmse
+from fingertip.models.vibration.classify import VibrationClassifier
+from fingertip.models.vibration.features import Recording
+from fingertip.models.vibration.material import train_material
+from fingertip.sim.dataset import write_vibration
+from fingertip.sim.mujoco.gripper import gripper
+from fingertip.sim.mujoco.robot import HAND_UNIT, open_gap_mm
+from fingertip.sim.mujoco import geometry
+from fingertip.sim.mujoco.scenes import NAIL_DOWN, SIDE_DOWN, probe
+from fingertip.sim.device.calibration_rig import calibration_sweep
+from fingertip.sim.physics import PAPER_SEVEN, VirtualStrainSensor
+from fingertip.sim.world.hand import unit_force_model
+
+SECONDS = 3.0
+REPEATS = 5
+
+
+def _probe_run(fidelity: str | None) -> tuple[float, int]:
+    """CPU seconds and steps of the probe scene with one sensor (None: none)."""
+    sc = probe(("coarse_fabric",))
+    sensors = [] if fidelity is None else [FingertipSensor(
+        sc.model, sc.data, sc.tips["tip"], fidelity=fidelity, materials=sc.materials)]
+    control = press_and_slide(slide_mm_s=20.0, t_press=0.3, t_slide=0.4)
+    c0 = time.process_time()
+    step_scene(sc.model, sc.data, sensors, SECONDS, control)
+    return time.process_time() - c0, round(SECONDS / sc.model.opt.timestep)
+
+
+def sensor_costs(repeats: int = REPEATS) -> dict[str, float]:
+    """Microseconds per step each fidelity adds, measured interleaved with the bare scene."""
+    levels: list[str | None] = [None, *FIDELITIES]
+    times: dict[str | None, list[float]] = {k: [] for k in levels}
+    steps = 0
+    _probe_run("full")  # warm up (imports, FFT plans, the texture profile)
+    for _ in range(repeats):
+        for level in levels:
+            cpu, steps = _probe_run(level)
+            times[level].append(cpu)
+    bare = statistics.median(times[None])
+    out = {"mujoco_step_us_probe": round(bare / steps * 1e6, 1)}
+    for level in FIDELITIES:
+        out[f"mujoco_sensor_us_per_step_{level}"] = round(
+            (statistics.median(times[level]) - bare) / steps * 1e6, 1)
+    return out
+
+
+def gripper_realtime_factor(seconds: float = SECONDS) -> float:
+    """Simulated seconds per CPU second: the gripper pinching and lifting the tofu."""
+    sc = gripper(("tofu",))
+    m, d = sc.model, sc.data
+    brk = sc.info["breakables"]
+    sensors = [FingertipSensor(m, d, tip, fidelity="full", seed=i)
+               for i, tip in enumerate(sc.tips.values())]
+    down = -0.1 + 0.004  # the fingertips' lower 5 mm beside the tofu's top
+    c0 = time.process_time()
+
+    def control(t: float, data) -> None:
+        data.ctrl[2] = down * min(1.0, t / 0.5) + 0.05 * min(1.0, max(0.0, t - 2.0) / 0.5)
+        data.ctrl[3] = data.ctrl[4] = 0.0235 * min(1.0, max(0.0, t - 0.6) / 1.0)
+        brk.update(data)
+
+    step_scene(m, d, sensors, seconds, control)
+    return seconds / (time.process_time() - c0)
+
+
+RAIL_HALF_X = 0.002
+"""The slide's plate is a 4 mm rail under the band of the fingertip's calibrated face (0-5 mm
+below the nail tip): a flat face on a whole plate touches along its length, base included."""
+LOADED_N = 0.1
+"""Readings with less true force than this are left out of the force errors (as unloaded)."""
+
+
+def _tared_error(model, readings, t_tare: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
+    """Estimates and MuJoCo's lateral forces of the loaded readings, tared on the first
+    ``t_tare`` seconds (nothing touches)."""
+    tare = np.mean([r.counts for r in readings if r.t < t_tare], axis=0)
+    loaded = [r for r in readings if np.hypot(*r.force_n[:2]) > LOADED_N]
+    est = model.estimate(np.array([r.counts for r in loaded], float) - tare)
+    return np.asarray(est)[:, :2], np.array([r.force_n[:2] for r in loaded])
+
+
+def _virtual_error(model, readings, t_tare: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
+    """The same unit as a virtual fingertip under the same loads (MuJoCo's contact force,
+    height and times fed straight to its strain model): its estimates and the truth."""
+    sensor = VirtualStrainSensor(HAND_UNIT)
+    t = np.array([r.t for r in readings])
+    f = np.array([r.force_n for r in readings])
+    h = np.array([r.height_mm for r in readings])
+    counts = sensor.counts_batch(f[:, :2], h, t, -f[:, 2])
+    tare = counts[t < t_tare].mean(axis=0)
+    loaded = np.hypot(f[:, 0], f[:, 1]) > LOADED_N
+    return np.asarray(model.estimate(counts[loaded] - tare))[:, :2], f[loaded, :2]
+
+
+def force_rmse() -> dict[str, float]:
+    """The unit's calibrated force model against MuJoCo's contact force (pinch, slide), and
+    against the virtual fingertip's own truth on a later calibration sweep of that unit."""
+    model = unit_force_model(HAND_UNIT)
+    sc = gripper(("tofu",))
+    brk = sc.info["breakables"]
+    pinch = FingertipSensor(sc.model, sc.data, sc.tips["left"], seed=HAND_UNIT, batch=8)
+    gap = open_gap_mm(0.015) * 1e-3
+
+    def squeeze(t: float, data) -> None:  # to 1.2 N (below the tofu's 1.5 N) and back
+        data.ctrl[2] = -0.096 * min(1.0, t / 0.4)
+        u = min(1.0, max(0.0, t - 0.6) / 3.0) - min(1.0, max(0.0, t - 4.6) / 2.0)
+        data.ctrl[3] = data.ctrl[4] = gap - 0.001 + 0.005 * u
+        brk.update(data)
+
+    step_scene(sc.model, sc.data, [pinch], 7.0, squeeze)
+    rs = pinch.readings()
+    e1, f1 = _tared_error(model, rs)
+    v1, _ = _virtual_error(model, rs)
+    sl = probe(("coarse_fabric",), quat=SIDE_DOWN, rail_half_x=RAIL_HALF_X)
+    slide = FingertipSensor(sl.model, sl.data, sl.tips["tip"], seed=HAND_UNIT, batch=8,
+                            materials=sl.materials)
+    press = press_and_slide(press_m=0.004, slide_mm_s=20.0, t_press=1.0, t_slide=1.5, axis=1)
+    over_band = geometry().nail_tip_z - 0.0025  # the rail under 0.5-4.5 mm below the nail
+
+    def rail(t: float, data) -> None:
+        press(t, data)
+        data.ctrl[0] = over_band
+
+    step_scene(sl.model, sl.data, [slide], 4.0, rail)
+    rs = slide.readings()
+    e2, f2 = _tared_error(model, rs, t_tare=0.3)
+    v2, _ = _virtual_error(model, rs, t_tare=0.3)
+    sensor = VirtualStrainSensor(HAND_UNIT)
+    tare = sensor.counts_batch(np.zeros((16, 2)), 0.0, np.arange(1, 17) / 80).mean(axis=0)
+    sw = calibration_sweep(sensor, seed=7, t0_us=1_000_000)
+    truth = np.column_stack([sw.fx, sw.fy])
+    keep = np.hypot(sw.fx, sw.fy) > LOADED_N
+    sweep = rmse(model.estimate(sw.counts[keep] - tare), truth[keep])
+    both = rmse(np.vstack([e1, e2]), np.vstack([f1, f2]))
+    own = rmse(np.vstack([v1, v2]), np.vstack([f1, f2]))
+    return {"mujoco_force_rmse_n": round(both, 4),
+            "mujoco_force_rmse_pinch_n": round(rmse(e1, f1), 4),
+            "mujoco_force_rmse_slide_n": round(rmse(e2, f2), 4),
+            "mujoco_force_rmse_virtual_n": round(own, 4),
+            "mujoco_force_rmse_sweep_n": round(sweep, 4),
+            "mujoco_force_rmse_ratio": round(both / own, 3)}
+
+
+MATERIAL_SLIDES = 5
+"""MuJoCo slides per material (the nail over its plate, speed 10-30 mm/s, 0.5-2 N)."""
+
+
+def _mujoco_slide(name: str, speed_mm_s: float, press_m: float, seed: int) -> np.ndarray:
+    """The piezo of the nail sliding over plate ``name`` (the 1.6 s of steady sliding)."""
+    sc = probe((name,), quat=NAIL_DOWN)
+    s = FingertipSensor(sc.model, sc.data, sc.tips["tip"], fidelity="full", seed=seed,
+                        materials=sc.materials)
+    step_scene(sc.model, sc.data, [s], 2.8,
+               press_and_slide(press_m=press_m, slide_mm_s=speed_mm_s, t_press=0.6,
+                               t_slide=1.0, axis=1))
+    return np.concatenate([b.samples for b in s.audio()
+                           if b.t0 >= 1.2 and b.t0 + len(b.samples) / b.fs <= 2.8])
+
+
+def material_accuracy() -> dict[str, float]:
+    """The material classifier trained on today's simulated slides (100 per material, as
+    bench_classify does), tested on slides over the MuJoCo plates: per window, and one
+    majority vote per slide."""
+    rng = np.random.default_rng(0)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        write_vibration(folder / "data", kind="materials", recordings_per_class=100, seed=5)
+        train_material(folder / "data", folder, plot=False, epochs=150, models=("mlp",))
+        clf = VibrationClassifier(folder / "material.onnx")
+        right = windows = votes = slides = 0
+        for name in PAPER_SEVEN:
+            for k in range(MATERIAL_SLIDES):
+                x = _mujoco_slide(name, float(rng.uniform(10, 30)),
+                                  float(rng.uniform(0.001, 0.004)), k)
+                labels = [p.label for p in clf.classify(Recording(x.astype(np.float64),
+                                                                  44100)).predictions]
+                right += sum(label == name for label in labels)
+                windows += len(labels)
+                votes += max(set(labels), key=labels.count) == name
+                slides += 1
+    return {"mujoco_material_accuracy": round(right / windows, 4),
+            "mujoco_material_vote_accuracy": round(votes / slides, 4)}
+
+
+def pinch_figures(trials: int = 25) -> dict[str, float]:
+    """The paper's pinch in both worlds, the same thresholds (the virtual world's
+    demonstration) and seeds."""
+    out: dict[str, float] = {}
+    total = {"mujoco": 0, "world": 0}
+    for name in ("tofu", "chip"):
+        world = world_experiment.run_pinch(name, trials, 0)
+        mj = mujoco_experiment.run_pinch(name, trials, 0, f_th_n=world.f_th_n)
+        total["world"] += world.success
+        total["mujoco"] += mj.success
+        out[f"mujoco_pinch_success_{name}"] = mj.success
+        out[f"mujoco_pinch_world_success_{name}"] = world.success
+        out[f"mujoco_pinch_lift_mm_min_{name}"] = round(
+            min(t["lifted_mm"] for t in mj.trials), 2)
+    out["mujoco_pinch_success"] = total["mujoco"]
+    out["mujoco_pinch_world_success"] = total["world"]
+    return out
+
+
+def run_bench() -> dict[str, float]:
+    out = sensor_costs()
+    out.update(force_rmse())
+    out.update(material_accuracy())
+    gripper_realtime_factor(0.5)  # warm up
+    out["mujoco_realtime_factor_full"] = round(
+        statistics.median(gripper_realtime_factor() for _ in range(3)), 2)
+    out.update(pinch_figures())
+    return out
+
+
+def run() -> dict[str, float]:
+    try:
+        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+    except (AttributeError, OSError):
+        pass
+    return run_bench()
+
+
+DESCRIPTION = {
+    "mujoco_step_us_probe": ("us per MuJoCo step of the probe scene alone (press and slide, "
+                             "2 ms), the baseline of the next three", None),
+    "mujoco_sensor_us_per_step_wrench": ("us one fingertip adds per 2 ms step: the contact "
+                                         "force and where it acts, per HX711 conversion",
+                                         None),
+    "mujoco_sensor_us_per_step_strain": ("us one fingertip adds per step: the strain model "
+                                         "to four HX711 counts at 80 SPS", ("<=", 20.0)),
+    "mujoco_sensor_us_per_step_full": ("us one fingertip adds per step: counts and the "
+                                       "piezo's 44.1 kHz audio (slip, texture, impacts)",
+                                       ("<=", 80.0)),
+    "mujoco_realtime_factor_full": ("simulated s per CPU s (one core): gripper on an arm "
+                                    "pinching the tofu, two fingertips with audio, "
+                                    "everything included",
+                                    (">=", 10.0)),
+    "mujoco_force_rmse_n": ("force RMSE (N, vector Fx Fy) of the fingertip's calibrated force "
+                            "model against MuJoCo's contact force, pinch (0-1.2 N) and slide "
+                            "(2 N, coarse fabric), both on the calibrated side 0-5 mm below "
+                            "the nail tip, readings above 0.1 N", None),
+    "mujoco_force_rmse_pinch_n": ("the same, the pinch alone", None),
+    "mujoco_force_rmse_slide_n": ("the same, the slide alone", None),
+    "mujoco_force_rmse_virtual_n": ("the virtual fingertip's own figure: the same unit fed "
+                                    "the same loads (MuJoCo's force, height, times) straight "
+                                    "into its strain model, the same model", None),
+    "mujoco_force_rmse_sweep_n": ("the same model on a later calibration sweep of its unit "
+                                  "(the paper's protocol, every error source)", None),
+    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over the virtual fingertip's own",
+                                ("<=", 1.1)),
+    "mujoco_material_accuracy": ("the material classifier trained on today's simulated slides "
+                                 "(100 per material), per window on the nail sliding over "
+                                 "the MuJoCo plates (5 slides per material, 10-30 mm/s, "
+                                 "0.5-2 N)", (">=", 0.95)),
+    "mujoco_material_vote_accuracy": ("the same, one majority vote per slide", None),
+    "mujoco_pinch_success": ("pinch trials held, lifted and unbroken on the MuJoCo gripper "
+                             "(tasks/pinch.py unchanged), of 50: 25 tofu + 25 chip", None),
+    "mujoco_pinch_world_success": ("the same recipe, thresholds and seeds in today's "
+                                   "virtual world, of 50, in the same run", None),
+    "mujoco_pinch_success_tofu": ("MuJoCo pinch, tofu (F_th from the demonstration at the "
+                                  "paper's 0.5 N), of 25", None),
+    "mujoco_pinch_success_chip": ("MuJoCo pinch, potato chip (the paper's 0.1 N), of 25",
+                                  None),
+    "mujoco_pinch_world_success_tofu": ("today's world, tofu, of 25", None),
+    "mujoco_pinch_world_success_chip": ("today's world, chip, of 25", None),
+    "mujoco_pinch_lift_mm_min_tofu": ("smallest lift of the tofu's halves when the recipe "
+                                      "ends (mm; the arm was told 20)", None),
+    "mujoco_pinch_lift_mm_min_chip": ("the same for the chip (mm)", None),
+}
