@@ -24,6 +24,7 @@ def test_the_readme_gives_the_scenes_length():
     assert int(m.group(1)) == round(demo_scene().duration_s)
 
 
+@pytest.mark.realtime
 @pytest.mark.slow
 @pytest.mark.usefixtures("fil_builds")
 def test_demo_on_the_firmware(tmp_path):

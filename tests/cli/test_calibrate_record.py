@@ -78,6 +78,7 @@ def test_no_reference_packets(tmp_path):
     assert r.returncode == 2 and "no RDT packets" in r.stderr
 
 
+@pytest.mark.realtime
 def test_virtual_rig_end_to_end(tmp_path):
     """Real pty, real UDP: the simulated Net F/T lags 37 ms and loses 1 % of its packets."""
     r = run_cli("--virtual", "--duration", "20", "--models", "affine", "-o", "cal", "-q",
