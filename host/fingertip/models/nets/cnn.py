@@ -34,6 +34,7 @@ import numpy as np
 from scipy.special import softmax
 
 from .onnx_io import onnx_builder, save_graph
+from .standardise import scale
 
 log = logging.getLogger(__name__)
 
@@ -370,8 +371,8 @@ def _train(x, y, classes, x_val, y_val, spec, epochs, batch, lr, weight_decay, p
     spec = spec or CnnSpec()
     spec = CnnSpec(x.shape[1], x.shape[2], spec.channels, spec.head, k)
     model = SmallResNet.init(spec, seed, classes)
-    model.x_mean = float(x.mean())
-    model.x_std = float(x.std()) or 1.0
+    mean, std = scale(x, axis=None)  # one mean and deviation for every band and frame
+    model.x_mean, model.x_std = float(mean), float(std)
     rng = np.random.default_rng(seed)
     names = list(model.params)
     p32 = {n: model.params[n].astype(np.float32) for n in names}

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.special import log_softmax, softmax
 
 from .onnx_io import batch_graph, onnx_builder, save_graph
+from .standardise import standardise
 
 log = logging.getLogger(__name__)
 
@@ -96,10 +97,7 @@ def train_logistic(x: np.ndarray, y: np.ndarray, *, classes: list[str],
     g = np.arange(len(y)) if groups is None else np.asarray(groups)
     _, inv, counts = np.unique(g, return_inverse=True, return_counts=True)
     weights = 1.0 / counts[inv]
-    mean = x.mean(axis=0)
-    std = x.std(axis=0)
-    std[std < 1e-9] = 1.0
-    xs = (x - mean) / std
+    xs, mean, std = standardise(x)
     if l2 is None:
         l2 = _choose_l2(xs, y, k, g, weights, seed)
     w, b = _fit(xs, y, k, l2, weights)

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.special import softmax
 
 from .onnx_io import batch_graph, onnx_builder, open_session, save_graph
+from .standardise import scale, standardise
 
 log = logging.getLogger(__name__)
 
@@ -90,10 +91,7 @@ def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32
     x, y = _check_xy(x, y)
     rng = np.random.default_rng(seed)
     n, d = x.shape
-    x_mean = x.mean(axis=0)
-    x_std = x.std(axis=0)
-    x_std[x_std < 1e-12] = 1.0  # a constant feature carries nothing: leave it unscaled
-    xs = (x - x_mean) / x_std
+    xs, x_mean, x_std = standardise(x)
     if task == "classification":
         labels = y.astype(np.int64).reshape(-1)
         k = int(labels.max()) + 1 if classes is None else len(classes)
@@ -103,8 +101,7 @@ def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32
         y_offset, y_scale = np.zeros(k), np.ones(k)
     else:
         yf = np.asarray(y, np.float64).reshape(n, -1)
-        y_offset, y_scale = yf.mean(axis=0), yf.std(axis=0)
-        y_scale[y_scale < 1e-12] = 1.0
+        y_offset, y_scale = scale(yf)
         target = (yf - y_offset) / y_scale
         k = yf.shape[1]
     idx = rng.permutation(n)
