@@ -8,6 +8,9 @@ import argparse
 import logging
 import math
 from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+T = TypeVar("T")
 
 
 def number(kind: type = float, lo: float | None = None, hi: float | None = None, *,
@@ -33,6 +36,20 @@ def number(kind: type = float, lo: float | None = None, hi: float | None = None,
             raise argparse.ArgumentTypeError(f"must be {span}, not {text}")
         return v
 
+    return parse
+
+
+def parsed(convert: Callable[[str], T]) -> Callable[[str], T]:
+    """An argparse ``type`` from a library's own parser (``expand_models``, say): its
+    ``ValueError`` becomes argparse's one-line usage error (exit status 2)."""
+
+    def parse(text: str) -> T:
+        try:
+            return convert(text)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    parse.__name__ = getattr(convert, "__name__", "value")
     return parse
 
 

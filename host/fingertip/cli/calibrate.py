@@ -15,18 +15,9 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from .argtypes import number
+from .argtypes import number, parsed
 from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
-
-
-def _models(text: str) -> list[str]:
-    from ..models.force.calibrate import expand_models
-
-    try:
-        return expand_models(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _load(args: argparse.Namespace):
@@ -118,7 +109,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def add_parsers(sub) -> None:
     """Add ``calibrate`` (with ``fit`` and ``check``) to ``sub``, the top-level subparsers
     of ``fingertip``."""
-    from ..models.force.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
+    from ..models.force.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION, expand_models
 
     c = sub.add_parser("calibrate", help="fit the force calibration (counts -> newtons)",
                        description="Force calibration of a fingertip from the paper's indenter "
@@ -141,7 +132,7 @@ def add_parsers(sub) -> None:
     common(f)
     f.add_argument("-o", "--out", default="calibration", metavar="OUTDIR",
                    help="output folder (default ./calibration; our files in it are replaced)")
-    f.add_argument("--models", type=_models, default=list(DEFAULT_MODELS),
+    f.add_argument("--models", type=parsed(expand_models), default=list(DEFAULT_MODELS),
                    help="comma-separated: affine, poly (= poly2,poly3), mlp (= mlp8,mlp16x16,"
                         "mlp32x32), or single names such as poly4, mlp64x64 (default: all)")
     f.add_argument("--bound", type=number(float, 0, 1000), default=10.0, metavar="PCT",
