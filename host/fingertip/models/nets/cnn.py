@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from scipy.special import softmax
 
+from .inputs import check_training
 from .onnx_io import onnx_builder, save_graph
 from .standardise import scale
 
@@ -358,16 +359,9 @@ def train_cnn(x: np.ndarray, y: np.ndarray, *, classes: list[str],
 
 def _train(x, y, classes, x_val, y_val, spec, epochs, batch, lr, weight_decay, patience,
            min_loss, max_seconds, seed) -> tuple[SmallResNet, CnnTraining]:
-    x = np.asarray(x, np.float32)
-    y = np.asarray(y, np.int64)
-    if x.ndim != 3 or len(x) != len(y) or not len(x):
-        raise ValueError(f"need windows (n, frames, bands) and one label each, got "
-                         f"{x.shape} and {y.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("training windows contain NaN or infinite values")
     k = len(classes)
-    if y.min() < 0 or y.max() >= k:
-        raise ValueError("labels must be 0..classes-1")
+    x, y = check_training(x, y, ndim=3, dtype=np.float32, classes=k,
+                          shape="(n, frames, bands)")
     spec = spec or CnnSpec()
     spec = CnnSpec(x.shape[1], x.shape[2], spec.channels, spec.head, k)
     model = SmallResNet.init(spec, seed, classes)
