@@ -36,7 +36,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..reference.rdt import RdtClient
     from ..transport import DeviceNotFound, TransportError
     from ..models.force.align import AlignmentError
-    from ..models.force.calib_session import chosen_text, fit_run, join_csvs, record_and_join
+    from ..models.force.calib_session import fit_run, join_csvs, record_and_join
     from ..models.force.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
@@ -95,8 +95,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    print(chosen_text(report, args.out, ", ".join(
-        v for k, v in report.files.items() if k != "chosen") + ", joined.csv, alignment.json"))
+    print(report.chosen_text(args.out, ("joined.csv", "alignment.json")))
     return 0
 
 
@@ -152,10 +151,7 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    from ..models.force.calib_session import chosen_text
-
-    print(chosen_text(report, args.out, ", ".join(
-        v for k, v in report.files.items() if k != "chosen"), " over whole weight steps"))
+    print(report.chosen_text(args.out, how=" over whole weight steps"))
     return 0
 
 
