@@ -8,6 +8,7 @@ import pytest
 import soundfile as sf
 
 from fingertip.audio import AudioFileError, AudioSource, FileSource
+from fingertip.audio.file import read_audio_file
 
 FS = 44100
 
@@ -170,3 +171,22 @@ def test_replay_keeps_the_recordings_own_timestamps_and_paces_from_now(tmp_path)
     assert time.monotonic() - t_start >= 0.09  # paced from start(), not from 12.5 s
     assert src.stats.late_blocks == 0
     assert chunks[3].host_time == 12.5 + chunks[3].first_index / FS
+
+
+def test_a_whole_file_read_at_once_matches_and_says_what_a_cut_copy_lacks(tmp_path, caplog):
+    x = pcm(16, 2, 4000)
+    path = tmp_path / "x.wav"
+    sf.write(path, x, FS)
+    whole = read_audio_file(path)
+    assert whole.rate == FS and whole.missing_frames == 0
+    np.testing.assert_array_equal(read_audio_file(path, "int16").samples, x)
+    np.testing.assert_array_equal(whole.samples, x / np.float32(32768))
+    path.write_bytes(path.read_bytes()[:-4000])  # a recorder killed mid-write
+    with caplog.at_level("WARNING"):
+        cut = read_audio_file(path)
+    assert len(cut.samples) == 3000 and cut.missing_frames == 1000
+    assert "cut short" in caplog.text
+    aiff = tmp_path / "x.aiff"
+    sf.write(aiff, np.zeros(100, np.int16), FS)
+    with pytest.raises(AudioFileError, match="use WAV or FLAC"):
+        read_audio_file(aiff)

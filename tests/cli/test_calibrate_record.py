@@ -78,6 +78,16 @@ def test_no_reference_packets(tmp_path):
     assert r.returncode == 2 and "no RDT packets" in r.stderr
 
 
+@pytest.mark.parametrize("args,match", [
+    ((), "give the fingertip: --port, --serial or --virtual"),
+    (("--models", "poly0"), "bad polynomial 'poly0'"),
+])
+def test_one_line_for_a_missing_fingertip_or_an_unknown_model(tmp_path, args, match):
+    r = run_cli(*args, cwd=tmp_path)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert match in r.stderr.strip().splitlines()[-1]  # one line (after argparse's usage)
+
+
 @pytest.mark.realtime
 def test_virtual_rig_end_to_end(tmp_path):
     """Real pty, real UDP: the simulated Net F/T lags 37 ms and loses 1 % of its packets."""

@@ -1,7 +1,10 @@
 """Recordings as a source: WAV and FLAC through soundfile (libsndfile), chunked like a card."""
 from __future__ import annotations
 
+import logging
 import os
+import struct
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +12,8 @@ import soundfile as sf
 
 from .blocks import BlockSource
 from .source import AudioFileError
+
+log = logging.getLogger(__name__)
 
 FORMATS = ("WAV", "WAVEX", "RF64", "W64", "FLAC")
 """Containers accepted (what libsndfile calls them)."""
@@ -34,6 +39,64 @@ def _file_info(path: Path) -> sf._SoundFileInfo:
         raise AudioFileError(f"{path}: bad header ({info.samplerate} Hz, "
                              f"{info.channels} channels)")
     return info
+
+
+@dataclass(frozen=True)
+class AudioFile:
+    """A whole recording read at once (:func:`read_audio_file`)."""
+
+    samples: np.ndarray
+    """(frames, channels), the dtype asked for."""
+    rate: int
+    missing_frames: int = 0
+    """Frames the WAV header announces beyond those the file holds (a copy cut short)."""
+
+
+def read_audio_file(path: str | os.PathLike, dtype: str = "float32") -> AudioFile:
+    """All frames of a WAV or FLAC file (float32: 1.0 = full scale), or a one-line
+    :class:`AudioFileError`. A WAV cut short is read up to its end, with a warning and
+    ``missing_frames`` set."""
+    path = Path(path)
+    _file_info(path)
+    try:
+        data, fs = sf.read(str(path), dtype=dtype, always_2d=True)
+    except (sf.SoundFileError, RuntimeError, ValueError) as e:
+        raise AudioFileError(f"{path}: not a readable WAV or FLAC file ({e})") from e
+    announced = wav_announced_frames(path)
+    missing = announced - len(data) if announced is not None and announced > len(data) else 0
+    if missing:
+        # libsndfile reads what is there; say that the end is missing.
+        log.warning("%s is cut short: its header announces %d frames, it holds %d "
+                    "(using those)", path, announced, len(data))
+    return AudioFile(data, int(fs), missing)
+
+
+def wav_announced_frames(path: Path) -> int | None:
+    """Frames a RIFF/WAVE file's header announces (its data chunk's size over its frame
+    size), or None when it is not such a file or says nothing usable."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(12)
+            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+                return None
+            block = None
+            while True:
+                h = f.read(8)
+                if len(h) < 8:
+                    return None
+                cid, size = h[:4], struct.unpack("<I", h[4:])[0]
+                if cid == b"fmt ":
+                    fmt = f.read(size + (size & 1))
+                    block = struct.unpack("<H", fmt[12:14])[0] if len(fmt) >= 14 else None
+                    continue
+                if cid == b"data":
+                    # 0 and 0xFFFFFFFF are what streaming writers leave: no length known
+                    if not block or size in (0, 0xFFFFFFFF):
+                        return None
+                    return size // block
+                f.seek(size + (size & 1), 1)
+    except OSError:
+        return None
 
 
 class FileSource(BlockSource):

@@ -8,6 +8,9 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable, Sequence
+from typing import TypeVar
+
+T = TypeVar("T")
 
 
 def number(kind: type = float, lo: float | None = None, hi: float | None = None, *,
@@ -46,6 +49,20 @@ def channel_list(text: str) -> list[int]:
     if not out or any(not 0 <= c <= 15 for c in out) or len(set(out)) != len(out):
         raise argparse.ArgumentTypeError(f"channels are distinct numbers 0-15, not {text!r}")
     return out
+
+
+def parsed(convert: Callable[[str], T]) -> Callable[[str], T]:
+    """An argparse ``type`` from a library's own parser (``expand_models``, say): its
+    ``ValueError`` becomes argparse's one-line usage error (exit status 2)."""
+
+    def parse(text: str) -> T:
+        try:
+            return convert(text)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    parse.__name__ = getattr(convert, "__name__", "value")
+    return parse
 
 
 def dispatch(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None) -> int:

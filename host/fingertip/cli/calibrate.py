@@ -15,19 +15,10 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from .argtypes import dispatch, number
+from .argtypes import dispatch, number, parsed
 from ..badfile import reports_bad_files
 
 log = logging.getLogger("fingertip")
-
-
-def _models(text: str) -> list[str]:
-    from ..models.force.calibrate import expand_models
-
-    try:
-        return expand_models(text)
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def _load(args: argparse.Namespace):
@@ -43,18 +34,11 @@ def _load(args: argparse.Namespace):
     return data, summary
 
 
-def _describe(data, summary) -> str:
-    d = summary["dropped"]
-    return (f"{summary['rows']} rows of {summary['rows_read']} "
-            f"({summary['sessions']} session(s): {', '.join(data.sources)}"
-            f"{'; unit ' + data.unit if data.unit else ''}); dropped {d['saturated']} "
-            f"saturated and {d['timeout']} timed-out; forces up to "
-            f"{summary['force_max_n']:.2f} N; condition number {summary['condition_number']:.3g}")
-
-
 @reports_bad_files
 def _cmd_check(args: argparse.Namespace) -> int:
     """Check that a calibration dataset can determine the force model, without fitting."""
+    from ..models.force.calibrate import describe
+
     data, summary = _load(args)
     if data is None:
         return 2
@@ -63,7 +47,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary))
     else:
-        print("ok: " + _describe(data, summary))
+        print("ok: " + describe(data, summary))
     return 0
 
 
@@ -74,7 +58,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     in N, optionally angle_deg, height_mm, trial, masks), test them on held-out cells of the
     protocol, export each to ONNX, time them with onnxruntime, and choose the fastest within
     the error bound. See docs/calibration.md."""
-    from ..models.force.calibrate import CalibrationError, fit_calibration
+    from ..models.force.calibrate import CalibrationError, describe, fit_calibration
     from ..outputs import check_output
 
     check_output(args.out, force=True, what="calibration folder", folder=True)
@@ -84,7 +68,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     for w in data.warnings:
         log.warning("%s", w)
     if not args.quiet:
-        print("calibrate: " + _describe(data, summary), file=sys.stderr)
+        print("calibrate: " + describe(data, summary), file=sys.stderr)
 
     def progress(msg: str) -> None:
         print(f"calibrate: {msg}", file=sys.stderr, flush=True)
@@ -105,23 +89,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(report.as_dict()))
         return 0
-    print(f"held out: {report.split}")
-    print(f"{report.rows_train} training rows, {report.rows_test} test rows\n")
-    print(report.table())
-    c = report.chosen_result
-    print(f"\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N, MSE {c.mse_n2:.4f} N^2, "
-          f"{c.latency_us_single:.1f} us per frame)")
-    print(report.rule)
-    files = ", ".join(v for k, v in report.files.items() if k != "chosen")
-    print(f"wrote {args.out}: force.onnx (= force_{c.name}.onnx), force_<model>.onnx for "
-          f"each model, {files}")
+    print(report.fit_text(args.out))
     return 0
 
 
 def add_parsers(sub) -> None:
     """Add ``calibrate`` (with ``fit`` and ``check``) to ``sub``, the top-level subparsers
     of ``fingertip``."""
-    from ..models.force.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION
+    from ..models.force.calibrate import DEFAULT_MODELS, MAX_SATURATED_FRACTION, expand_models
 
     c = sub.add_parser("calibrate", help="fit the force calibration (counts -> newtons)",
                        description="Force calibration of a fingertip from the paper's indenter "
@@ -144,7 +119,7 @@ def add_parsers(sub) -> None:
     common(f)
     f.add_argument("-o", "--out", default="calibration", metavar="OUTDIR",
                    help="output folder (default ./calibration; our files in it are replaced)")
-    f.add_argument("--models", type=_models, default=list(DEFAULT_MODELS),
+    f.add_argument("--models", type=parsed(expand_models), default=list(DEFAULT_MODELS),
                    help="comma-separated: affine, poly (= poly2,poly3), mlp (= mlp8,mlp16x16,"
                         "mlp32x32), or single names such as poly4, mlp64x64 (default: all)")
     f.add_argument("--bound", type=number(float, 0, 1000), default=10.0, metavar="PCT",

@@ -9,7 +9,7 @@ import contextlib
 import logging
 import sys
 
-from .argtypes import number
+from .argtypes import number, parsed
 
 log = logging.getLogger("fingertip")
 
@@ -60,7 +60,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..reference.rdt import RdtClient
     from ..transport import DeviceNotFound, TransportError
     from ..models.force.align import AlignmentError
-    from ..models.force.calib_session import chosen_text, fit_run, join_csvs, record_and_join
+    from ..models.force.calib_session import fit_run, join_csvs, record_and_join
     from ..models.force.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
@@ -75,6 +75,10 @@ def _cmd_record(args: argparse.Namespace) -> int:
                                 time_column=args.time_column, serial=args.device_serial or "",
                                 max_lag_s=args.max_offset)
             else:
+                if not (args.virtual or args.port or args.serial):
+                    log.error("give the fingertip: --port, --serial or --virtual (or "
+                              "--fingertip-csv with --reference-csv)")
+                    return 2
                 begin = None
                 if args.virtual:
                     from ..sim.device.reference_rig import virtual_rdt_rig
@@ -115,8 +119,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    print(chosen_text(report, args.out, ", ".join(
-        v for k, v in report.files.items() if k != "chosen") + ", joined.csv, alignment.json"))
+    print(report.chosen_text(args.out, ("joined.csv", "alignment.json")))
     return 0
 
 
@@ -172,10 +175,7 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     except OSError as e:
         log.error("writing into %s failed: %s", args.out, e.strerror or e)
         return 1
-    from ..models.force.calib_session import chosen_text
-
-    print(chosen_text(report, args.out, ", ".join(
-        v for k, v in report.files.items() if k != "chosen"), " over whole weight steps"))
+    print(report.chosen_text(args.out, how=" over whole weight steps"))
     return 0
 
 
@@ -188,7 +188,7 @@ def _network_reference(args: argparse.Namespace):
 
 
 def add_parser(csub) -> None:
-    from .calibrate import _models
+    from ..models.force.calibrate import expand_models
 
     r = csub.add_parser("record", help="record with a reference sensor, align clocks, fit",
                         description=_cmd_record.__doc__)
@@ -219,7 +219,7 @@ def add_parser(csub) -> None:
     r.add_argument("--max-offset", type=number(float, 0.05, 600.0), default=2.0,
                    metavar="S", help="search the clock offset within +-S seconds (default 2)")
     r.add_argument("-o", "--out", default="calibration", metavar="OUTDIR")
-    r.add_argument("--models", type=_models, default=["affine", "poly2", "mlp16x16"],
+    r.add_argument("--models", type=parsed(expand_models), default=["affine", "poly2", "mlp16x16"],
                    help="models to fit (default affine,poly2,mlp16x16)")
     r.add_argument("--seed", type=int, default=0, help="--virtual: which unit")
     r.add_argument("--sim-delay-ms", type=float, default=37.0,
@@ -241,7 +241,7 @@ def add_parser(csub) -> None:
                    help="--virtual: the masses hung in each direction, grams")
     w.add_argument("--device-serial", help="the fingertip's serial, written into the model")
     w.add_argument("-o", "--out", default="calibration", metavar="OUTDIR")
-    w.add_argument("--models", type=_models, default=["affine"],
+    w.add_argument("--models", type=parsed(expand_models), default=["affine"],
                    help="models to fit (default affine: a few weights determine little more)")
     w.add_argument("--seed", type=int, default=0, help="--virtual: which unit")
     w.add_argument("--speed", type=number(float, 0.1, 20.0), default=1.0,

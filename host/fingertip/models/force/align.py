@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..nets.standardise import standardise
+
 DEGREE = 2
 REFINE_ROUNDS = 3
 SEARCH_STEP_S = 0.02
@@ -87,9 +89,7 @@ def _design(counts: np.ndarray, degree: int = DEGREE) -> np.ndarray:
     linear, and a misfit that a lag can partly absorb would bias the offset. No memory
     terms (hysteresis, creep models): they can imitate a delay, even a large one."""
     x = np.asarray(counts, float)
-    mu, sd = x.mean(axis=0), x.std(axis=0)
-    sd[sd == 0] = 1.0
-    z = (x - mu) / sd
+    z = standardise(x)[0]
     cols = [np.ones(len(x))]
     for d in range(1, degree + 1):
         for idx in itertools.combinations_with_replacement(range(z.shape[1]), d):

@@ -80,12 +80,3 @@ def fit_run(run: JoinedRun, out_dir: str | Path, *, models: list[str],
     return fit_joined(run.joined, out_dir, gain=run.fingertip.gain, unit=run.serial,
                       device_serial=run.serial, sources=run.sources, models=models,
                       progress=progress)
-
-
-def chosen_text(report: CalibrationReport, out_dir: str | Path, files: str,
-                how: str = "") -> str:
-    """The models' table and the line naming the chosen model and the files written
-    (``how``: how the held-out rows were chosen, when not by trial)."""
-    c = report.chosen_result
-    return (f"{report.table()}\n\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N{how}); "
-            f"wrote {out_dir}: force.onnx, {files}")

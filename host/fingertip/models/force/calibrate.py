@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ...protocol import INT24_MAX, INT24_MIN
-from .calibration.checks import check_dataset, design_condition
+from .calibration.checks import check_dataset, describe, design_condition
 from .calibration.data import CalibrationData, from_arrays, load_dataset
 from .calibration.errors import (
     CalibrationError,
@@ -61,7 +61,7 @@ __all__ = [
     "DatasetFormatError", "DeadChannelError", "INT24_MAX", "INT24_MIN", "IllConditionedError",
     "MAX_CONDITION", "MAX_SATURATED_FRACTION", "MixedUnitsError", "ModelResult",
     "NonFiniteError", "Progress", "SaturationError", "SingleDirectionError", "TooFewRowsError",
-    "angle_keys", "check_dataset", "choose", "design_condition", "expand_models",
+    "angle_keys", "check_dataset", "choose", "describe", "design_condition", "expand_models",
     "extreme_inputs", "fit_affine", "fit_calibration", "fit_mlp", "fit_model", "fit_poly",
     "float32_error", "from_arrays", "load_dataset", "measure_latency", "model_metadata",
     "rmse", "split_groups", "split_holdout"

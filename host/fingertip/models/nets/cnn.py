@@ -33,7 +33,9 @@ from pathlib import Path
 import numpy as np
 from scipy.special import softmax
 
+from .inputs import check_training
 from .onnx_io import onnx_builder, save_graph
+from .standardise import scale
 
 log = logging.getLogger(__name__)
 
@@ -357,21 +359,14 @@ def train_cnn(x: np.ndarray, y: np.ndarray, *, classes: list[str],
 
 def _train(x, y, classes, x_val, y_val, spec, epochs, batch, lr, weight_decay, patience,
            min_loss, max_seconds, seed) -> tuple[SmallResNet, CnnTraining]:
-    x = np.asarray(x, np.float32)
-    y = np.asarray(y, np.int64)
-    if x.ndim != 3 or len(x) != len(y) or not len(x):
-        raise ValueError(f"need windows (n, frames, bands) and one label each, got "
-                         f"{x.shape} and {y.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("training windows contain NaN or infinite values")
     k = len(classes)
-    if y.min() < 0 or y.max() >= k:
-        raise ValueError("labels must be 0..classes-1")
+    x, y = check_training(x, y, ndim=3, dtype=np.float32, classes=k,
+                          shape="(n, frames, bands)")
     spec = spec or CnnSpec()
     spec = CnnSpec(x.shape[1], x.shape[2], spec.channels, spec.head, k)
     model = SmallResNet.init(spec, seed, classes)
-    model.x_mean = float(x.mean())
-    model.x_std = float(x.std()) or 1.0
+    mean, std = scale(x, axis=None)  # one mean and deviation for every band and frame
+    model.x_mean, model.x_std = float(mean), float(std)
     rng = np.random.default_rng(seed)
     names = list(model.params)
     p32 = {n: model.params[n].astype(np.float32) for n in names}

@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 from scipy.special import log_softmax, softmax
 
+from .inputs import check_training
 from .onnx_io import batch_graph, onnx_builder, save_graph
+from .standardise import standardise
 
 log = logging.getLogger(__name__)
 
@@ -83,23 +85,12 @@ def train_logistic(x: np.ndarray, y: np.ndarray, *, classes: list[str],
     picks ``l2`` (when None) is by recording, so that correlated windows of one recording
     never sit on both sides.
     """
-    x = np.asarray(x, np.float64)
-    y = np.asarray(y, np.int64)
-    if x.ndim != 2 or len(x) != len(y) or not len(x):
-        raise ValueError(f"need X (n, features) and one label per row, got {x.shape}, "
-                         f"{y.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("training inputs contain NaN or infinite values")
     k = len(classes)
-    if y.min() < 0 or y.max() >= k:
-        raise ValueError("labels must be 0..classes-1")
+    x, y = check_training(x, y, classes=k)
     g = np.arange(len(y)) if groups is None else np.asarray(groups)
     _, inv, counts = np.unique(g, return_inverse=True, return_counts=True)
     weights = 1.0 / counts[inv]
-    mean = x.mean(axis=0)
-    std = x.std(axis=0)
-    std[std < 1e-9] = 1.0
-    xs = (x - mean) / std
+    xs, mean, std = standardise(x)
     if l2 is None:
         l2 = _choose_l2(xs, y, k, g, weights, seed)
     w, b = _fit(xs, y, k, l2, weights)

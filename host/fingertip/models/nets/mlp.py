@@ -19,7 +19,9 @@ from typing import Literal
 import numpy as np
 from scipy.special import softmax
 
+from .inputs import check_training
 from .onnx_io import batch_graph, onnx_builder, open_session, save_graph
+from .standardise import scale, standardise
 
 log = logging.getLogger(__name__)
 
@@ -64,19 +66,6 @@ class MLP:
         return h * self.y_scale + self.y_offset
 
 
-def _check_xy(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    x = np.asarray(x, np.float64)
-    y = np.asarray(y)
-    if x.ndim != 2 or len(x) != len(y):
-        raise ValueError(f"need X of shape (n, features) and one target per row, got "
-                         f"{x.shape} and {y.shape}")
-    if not np.all(np.isfinite(x)):
-        raise ValueError("training inputs contain NaN or infinite values")
-    if y.dtype.kind == "f" and not np.all(np.isfinite(y)):
-        raise ValueError("training targets contain NaN or infinite values")
-    return x, y
-
-
 def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32),
               task: Task = "regression", classes: list[str] | None = None,
               epochs: int = 300, batch: int = 64, lr: float = 3e-3,
@@ -87,13 +76,10 @@ def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32
     Regression: ``y`` is (n, outputs) in physical units (standardised inside). Classification:
     ``y`` holds integer labels 0..k-1 (``classes`` names them).
     """
-    x, y = _check_xy(x, y)
+    x, y = check_training(x, y)  # labels are checked below: k may come from them
     rng = np.random.default_rng(seed)
     n, d = x.shape
-    x_mean = x.mean(axis=0)
-    x_std = x.std(axis=0)
-    x_std[x_std < 1e-12] = 1.0  # a constant feature carries nothing: leave it unscaled
-    xs = (x - x_mean) / x_std
+    xs, x_mean, x_std = standardise(x)
     if task == "classification":
         labels = y.astype(np.int64).reshape(-1)
         k = int(labels.max()) + 1 if classes is None else len(classes)
@@ -103,8 +89,7 @@ def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32
         y_offset, y_scale = np.zeros(k), np.ones(k)
     else:
         yf = np.asarray(y, np.float64).reshape(n, -1)
-        y_offset, y_scale = yf.mean(axis=0), yf.std(axis=0)
-        y_scale[y_scale < 1e-12] = 1.0
+        y_offset, y_scale = scale(yf)
         target = (yf - y_offset) / y_scale
         k = yf.shape[1]
     idx = rng.permutation(n)

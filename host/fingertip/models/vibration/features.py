@@ -356,53 +356,21 @@ def read_recording(path: str | Path, rate: float | None = None, channel: int = 0
         raise FeatureError(f"{path}: no such file")
     if path.suffix.lower() in CSV_EXTENSIONS:
         return _read_csv(path, rate)
-    import soundfile as sf
+    from ...audio.file import read_audio_file
+    from ...audio.source import AudioFileError
 
     try:
-        data, fs = sf.read(str(path), dtype="float32", always_2d=True)
-    except (sf.SoundFileError, RuntimeError, ValueError) as e:
-        raise FeatureError(f"{path}: not a readable WAV/FLAC/CSV recording ({e})") from e
+        audio = read_audio_file(path)
+    except AudioFileError as e:
+        raise FeatureError(str(e)) from e
+    data = audio.samples
     if not 0 <= channel < data.shape[1]:
         raise FeatureError(f"{path}: has {data.shape[1]} channel(s), no channel {channel}")
-    rec = as_recording(data[:, channel], fs, str(path), full_scale=1.0)
+    rec = as_recording(data[:, channel], audio.rate, str(path), full_scale=1.0)
     rec.meta["format"] = path.suffix.lower().lstrip(".")
-    announced = wav_announced_frames(path)
-    if announced is not None and announced > len(data):
-        # libsndfile reads what is there; say that the end is missing (a copy cut short).
-        log.warning("%s is cut short: its header announces %d frames, it holds %d "
-                    "(using those)", path, announced, len(data))
-        rec.meta["truncated_frames"] = announced - len(data)
+    if audio.missing_frames:
+        rec.meta["truncated_frames"] = audio.missing_frames
     return rec
-
-
-def wav_announced_frames(path: Path) -> int | None:
-    """Frames a RIFF/WAVE file's header announces (its data chunk's size over its frame
-    size), or None when it is not such a file or says nothing usable."""
-    import struct
-
-    try:
-        with open(path, "rb") as f:
-            head = f.read(12)
-            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
-                return None
-            block = None
-            while True:
-                h = f.read(8)
-                if len(h) < 8:
-                    return None
-                cid, size = h[:4], struct.unpack("<I", h[4:])[0]
-                if cid == b"fmt ":
-                    fmt = f.read(size + (size & 1))
-                    block = struct.unpack("<H", fmt[12:14])[0] if len(fmt) >= 14 else None
-                    continue
-                if cid == b"data":
-                    # 0 and 0xFFFFFFFF are what streaming writers leave: no length known
-                    if not block or size in (0, 0xFFFFFFFF):
-                        return None
-                    return size // block
-                f.seek(size + (size & 1), 1)
-    except OSError:
-        return None
 
 
 # --- rate ---------------------------------------------------------------------------------

@@ -46,6 +46,17 @@ def check_conditioning(counts: np.ndarray, max_condition: float = MAX_CONDITION)
     return cond
 
 
+def describe(data: CalibrationData, summary: dict[str, Any]) -> str:
+    """One line on a checked dataset (``summary`` from :func:`check_dataset`): rows kept,
+    sessions, what was dropped, the largest force and the condition number."""
+    d = summary["dropped"]
+    return (f"{summary['rows']} rows of {summary['rows_read']} "
+            f"({summary['sessions']} session(s): {', '.join(data.sources)}"
+            f"{'; unit ' + data.unit if data.unit else ''}); dropped {d['saturated']} "
+            f"saturated and {d['timeout']} timed-out; forces up to "
+            f"{summary['force_max_n']:.2f} N; condition number {summary['condition_number']:.3g}")
+
+
 def check_dataset(data: CalibrationData, *, min_rows: int = MIN_ROWS,
                   max_condition: float = MAX_CONDITION) -> dict[str, Any]:
     """Refuse data that cannot determine the map (raises a :class:`CalibrationError`

@@ -12,6 +12,7 @@ import numpy as np
 
 from ...nets.mlp import MLP, to_onnx, train_mlp
 from ...nets.onnx_io import batch_graph, onnx_builder, save_graph
+from ...nets.standardise import constant_features, standardise
 from .checks import _dependence
 from .errors import DeadChannelError, IllConditionedError
 from .limits import CHANNELS, MAX_CONDITION
@@ -86,11 +87,10 @@ def _monomials(z: np.ndarray, terms: Sequence[tuple[int, ...]]) -> np.ndarray:
 
 
 def _standardise(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    x = np.asarray(counts, np.float64)
-    mean, sd = x.mean(axis=0), x.std(axis=0)
-    if np.any(sd == 0):
-        raise DeadChannelError(f"channel(s) {np.flatnonzero(sd == 0).tolist()} are constant")
-    return (x - mean) / sd, mean, sd
+    dead = constant_features(counts)
+    if len(dead):
+        raise DeadChannelError(f"channel(s) {dead.tolist()} are constant")
+    return standardise(counts)
 
 
 def whitening(z: np.ndarray) -> np.ndarray:

@@ -79,6 +79,31 @@ class CalibrationReport:
                 f"{'**chosen**' if m.name == self.chosen else ''} |")
         return "\n".join(lines)
 
+    def fit_text(self, out_dir: str | Path) -> str:
+        """What ``calibrate fit`` prints: what was held out, the table, the chosen model
+        and its rule, the files written into ``out_dir``."""
+        c = self.chosen_result
+        return (f"held out: {self.split}\n"
+                f"{self.rows_train} training rows, {self.rows_test} test rows\n\n"
+                f"{self.table()}\n\n"
+                f"chosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N, MSE {c.mse_n2:.4f} N^2, "
+                f"{c.latency_us_single:.1f} us per frame)\n{self.rule}\n"
+                f"wrote {out_dir}: force.onnx (= force_{c.name}.onnx), force_<model>.onnx "
+                f"for each model, {self.files_text()}")
+
+    def files_text(self, extra: tuple[str, ...] = ()) -> str:
+        """The report's files (and ``extra`` ones written beside them), comma-separated."""
+        return ", ".join([v for k, v in self.files.items() if k != "chosen"] + list(extra))
+
+    def chosen_text(self, out_dir: str | Path, extra: tuple[str, ...] = (),
+                    how: str = "") -> str:
+        """The models' table and the line naming the chosen model and the files written
+        (``extra``: more files written beside the report's; ``how``: how the held-out rows
+        were chosen, when not by trial)."""
+        c = self.chosen_result
+        return (f"{self.table()}\n\nchosen: {c.name} (held-out RMSE {c.rmse_n:.3f} N{how}); "
+                f"wrote {out_dir}: force.onnx, {self.files_text(extra)}")
+
     def markdown(self) -> str:
         src = ", ".join(self.data.get("sources") or [])
         out = ["# Force calibration", "",
