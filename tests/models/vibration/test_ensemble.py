@@ -9,7 +9,8 @@ import pytest
 
 from fingertip.models.nets.linear import train_logistic
 from fingertip.models.nets.mlp import OnnxModel, train_mlp
-from fingertip.models.vibration.candidates import baseline_bins, candidates, choose_setup
+from fingertip.models.vibration.candidates import baseline_bins, candidates
+from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.classify import FeaturePipeline, VibrationClassifier, load_folder
 from fingertip.models.vibration.ensemble import Ensemble, Member, to_onnx
 from fingertip.models.vibration.features import (

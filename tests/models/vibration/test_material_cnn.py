@@ -25,12 +25,9 @@ def folder(tmp_path_factory):
 
 def cnn_work_of(folder, n_fits: int) -> int:
     """The CNN candidate's projected work on ``folder``, counted here from its windows."""
-    from fingertip.models.vibration.candidates import (
-        CNN_EPOCHS,
-        candidate_windows,
-        candidates,
-        choose_setup,
-    )
+    from fingertip.models.vibration.bank import candidate_windows
+    from fingertip.models.vibration.candidates import CNN_EPOCHS, candidates
+    from fingertip.models.vibration.setup import choose_setup
     from fingertip.models.vibration.classify import load_folder
 
     ds = load_folder(folder)
@@ -84,7 +81,7 @@ def test_augmentation_is_adopted_only_when_it_costs_no_accuracy(folder, tmp_path
 
 
 def test_best_case_completes_answers_with_right_and_certain_ones():
-    from fingertip.models.vibration.candidates import Answers, accuracy_by_time, best_case
+    from fingertip.models.vibration.scores import Answers, accuracy_by_time, best_case
 
     labels = np.array([0, 1, 1])
     t = np.array([0.25, 0.5, 1.0])

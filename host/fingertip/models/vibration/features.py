@@ -628,13 +628,16 @@ def log_window(power: np.ndarray, floor_db: float = FLOOR_DB, split: int = 0
 
 
 STATS = ("mean", "std", "flux")
+"""The default summary of a window (what models without a ``stats`` entry were made with)."""
+KNOWN_STATS = (*STATS, "p90")
 
 
 def pooled(logwin: np.ndarray, stats: Sequence[str] = STATS) -> np.ndarray:
     """Summary of windows of log band power, (..., frames, bands) -> (..., len(stats) x
     bands): the mean over time (spectral shape), the standard deviation (how much each band
-    fluctuates: clicks, impacts, stick-slip) and the mean absolute change between
-    consecutive frames (texture and modulation), in the order of ``stats``."""
+    fluctuates: clicks, impacts, stick-slip), the mean absolute change between
+    consecutive frames (texture and modulation) and the 90th percentile (``p90``: the
+    loud moments of each band, robust to a single click), in the order of ``stats``."""
     parts = []
     for s in stats:
         if s == "mean":
@@ -646,8 +649,10 @@ def pooled(logwin: np.ndarray, stats: Sequence[str] = STATS) -> np.ndarray:
                          if logwin.shape[-2] > 1 else np.zeros(logwin.shape[:-2]
                                                                 + logwin.shape[-1:],
                                                                 logwin.dtype))
+        elif s == "p90":
+            parts.append(np.percentile(logwin, 90, axis=-2).astype(logwin.dtype, copy=False))
         else:
-            raise ValueError(f"unknown statistic {s!r} (one of {STATS})")
+            raise ValueError(f"unknown statistic {s!r} (one of {KNOWN_STATS})")
     return np.concatenate(parts, axis=-1)
 
 
