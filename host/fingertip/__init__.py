@@ -10,15 +10,8 @@ __version__ = "0.1.0"
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 from .device import (  # noqa: E402  (after the version, which submodules may read)
-    BridgeStats,
-    CommandFailed,
-    CommandTimeout,
-    FingerFrame,
-    Fingertip,
-    FingertipError,
-    Frame,
-    Hand,
-    NotConnected,
+    BridgeStats, CommandFailed, CommandTimeout, FingerFrame, Fingertip, FingertipError, Frame,
+    Hand, NotConnected,
 )
 from .protocol import ProtocolVersionError  # noqa: E402
 

@@ -25,13 +25,7 @@ from .plots import session_summary
 from .record import Recorder
 from .sim import VirtualFirmware
 from .sim.physics import (
-    CupStackSlide,
-    Press,
-    Script,
-    Slide,
-    VirtualStrainSensor,
-    calibration_sweep,
-    simulate,
+    CupStackSlide, Press, Script, Slide, VirtualStrainSensor, calibration_sweep, simulate,
 )
 
 log = logging.getLogger(__name__)

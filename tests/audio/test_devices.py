@@ -9,14 +9,8 @@ from pathlib import Path
 import pytest
 
 from fingertip.audio import (
-    AudioDeviceNotFound,
-    InputDevice,
-    alsa_card_of,
-    find_alsa_card,
-    find_input_device,
-    usb_hub_of,
-    usb_path_of_alsa_card,
-    usb_serial_of_alsa_card,
+    AudioDeviceNotFound, InputDevice, alsa_card_of, find_alsa_card, find_input_device,
+    usb_hub_of, usb_path_of_alsa_card, usb_serial_of_alsa_card,
 )
 
 AUDIO_PACKAGE = Path(__file__).resolve().parents[2] / "host" / "fingertip" / "audio"

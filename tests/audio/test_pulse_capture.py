@@ -9,13 +9,8 @@ import pytest
 import soundfile as sf
 
 from fingertip.audio import (
-    AudioDeviceNotFound,
-    AudioSettingsError,
-    Chunk,
-    SoundDeviceSource,
-    find_input_device,
-    list_input_devices,
-    refresh_devices,
+    AudioDeviceNotFound, AudioSettingsError, Chunk, SoundDeviceSource, find_input_device,
+    list_input_devices, refresh_devices,
 )
 
 from .pulse import PulseError, check_tools

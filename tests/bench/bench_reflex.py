@@ -35,6 +35,7 @@ import numpy as np
 from fingertip.device.fingertip import DEVICE_RATES
 from fingertip.sim import latency_budget as lb
 from fingertip.sim import pinch_speed as ps
+
 from fingertip.sim.physics.touch import Session, render_session, touch_sessions
 from fingertip.sim.reflex_eval import run_session, summarise
 from fingertip.sim.world.slip import run_hold_trial, slip_trials

@@ -10,6 +10,7 @@ import numpy as np
 
 from fingertip.sim import experiment as ex
 
+
 _last: list = []
 """The latest run's results, for :func:`tables`."""
 

@@ -7,16 +7,7 @@ import pytest
 
 from fingertip import CommandFailed
 from fingertip.protocol import (
-    ErrorCode,
-    GetStats,
-    Nack,
-    Ping,
-    SetPower,
-    SetRate,
-    Start,
-    Stats,
-    StreamDecoder,
-    encode,
+    ErrorCode, GetStats, Nack, Ping, SetPower, SetRate, Start, Stats, StreamDecoder, encode,
     seal,
 )
 from fingertip.sim.simavr import open_fingertip

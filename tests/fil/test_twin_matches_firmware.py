@@ -7,23 +7,8 @@ from __future__ import annotations
 import time
 
 from fingertip.protocol import (
-    GetInfo,
-    GetStats,
-    Info,
-    Ping,
-    ResetCounters,
-    Sample,
-    SetGain,
-    SetPower,
-    SetRate,
-    SetTareOffsets,
-    Start,
-    Stats,
-    Stop,
-    StreamDecoder,
-    Tare,
-    encode,
-    seal,
+    GetInfo, GetStats, Info, Ping, ResetCounters, Sample, SetGain, SetPower, SetRate,
+    SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, seal,
 )
 from fingertip.sim import VirtualFirmware
 from fingertip.transport import open_serial

@@ -46,12 +46,12 @@ def assert_one_line(r: subprocess.CompletedProcess, names: Path) -> str:
 @pytest.fixture(scope="module")
 def good(tmp_path_factory) -> dict[str, Path]:
     """One valid file of each kind: recording, material model, force model, WAV, CSV."""
-    from fingertip import Fingertip
     from fingertip.models.force.calibrate import fit_affine, from_arrays, model_metadata
     from fingertip.models.vibration.material import train_material
     from fingertip.record import Recorder
     from fingertip.sim.dataset import write_vibration
     from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
+    from fingertip import Fingertip
 
     d = tmp_path_factory.mktemp("good")
     write_vibration(d / "vib", recordings_per_class=3, seconds=0.6, seed=1)

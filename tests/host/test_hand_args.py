@@ -7,15 +7,9 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from fingertip.hand_args import (
-    AudioInput,
-    add_hand_args,
-    hand_audio_from_args,
-    hand_audio_inputs,
-    hand_spec_from_args,
-    parse_assignments,
-    parse_split,
-)
+from fingertip.hand_args import (AudioInput, add_hand_args, hand_audio_from_args,
+                                 hand_audio_inputs, hand_spec_from_args,
+                                 parse_assignments, parse_split)
 
 
 def parser() -> argparse.ArgumentParser:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+
 from fingertip_cad import Dims, load_params
 from fingertip_cad.build import Parts, build
 from fingertip_cad.checks import load_mesh

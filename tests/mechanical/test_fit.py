@@ -5,6 +5,7 @@ import itertools
 import math
 
 import pytest
+
 from fingertip_cad import bought
 from fingertip_cad.checks import common_volume, distance, first_hit_x, inside, point_distance
 from fingertip_cad.solids import box

@@ -3,11 +3,11 @@ and the prism's strain per newton from the very geometry the CAD builds."""
 from __future__ import annotations
 
 import pytest
+
+from fingertip.sim.physics import load
 from fingertip_cad import Dims, load_params
 from fingertip_cad.cli import main
 from fingertip_cad.config import parse_override
-
-from fingertip.sim.physics import load
 
 
 def test_the_cad_reads_the_physics_models_file():

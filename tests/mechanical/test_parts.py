@@ -5,6 +5,7 @@ import math
 
 import cadquery as cq
 import pytest
+
 from fingertip_cad.build import MATERIALS
 from fingertip_cad.checks import mesh_report
 

@@ -5,6 +5,7 @@ import math
 from pathlib import Path
 
 import pytest
+
 from fingertip_cad.checks import pcb_fit_problems
 from fingertip_cad.kicad import read_board
 
@@ -23,6 +24,7 @@ def test_the_fingertip_pcb_fits_the_base(shipped):
 def test_the_pocket_outline_function_matches_the_base(cad):
     """``Dims.pocket_contains`` (pure Python, for pcb/ to use) says the same as the solid."""
     import numpy as np
+
     from fingertip_cad.checks import inside
 
     d = cad.dims

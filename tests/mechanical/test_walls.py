@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import pytest
 import trimesh
+
 from fingertip_cad.checks import wall_thickness
 
 PRINTED = ("base", "prism", "cap", "mold_a", "mold_b")

@@ -9,16 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.pcb.test_boards import (
-    PCB,
-    ROOT,
-    SYS_PY,
-    arduino_name,
-    firmware_pins,
-    kicad_cli,
-    run,
-    uno_pin_numbers,
-)
+from tests.pcb.test_boards import (PCB, ROOT, SYS_PY, arduino_name, firmware_pins, kicad_cli,
+                                   run, uno_pin_numbers)
 
 sys.path.insert(0, str(PCB / "tools"))
 import fingertip_geometry as geo  # noqa: E402

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from fingertip.cli.record import add_parsers, main
 from fingertip.record import Recording
+from fingertip.cli.record import add_parsers, main
 
 logging.getLogger("fingertip").setLevel(logging.INFO)
 

@@ -13,16 +13,8 @@ import soundfile as sf
 
 from fingertip.cli.sim import main
 from fingertip.sim.dataset import (
-    CALIBRATION_COLUMNS,
-    MANIFEST_COLUMNS,
-    TASK_AMPLITUDE_GAIN,
-    TASK_BOX_ITEMS,
-    DatasetError,
-    plan_vibration,
-    read_calibration_csv,
-    resample,
-    write_calibration,
-    write_vibration,
+    CALIBRATION_COLUMNS, MANIFEST_COLUMNS, TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS, DatasetError,
+    plan_vibration, read_calibration_csv, resample, write_calibration, write_vibration,
 )
 from fingertip.sim.physics import PAPER_SEVEN, params_path
 

@@ -1,8 +1,9 @@
 """The parameter file: one source of truth, strictly loaded, consistent with the paper."""
 from __future__ import annotations
 
-import pytest
 import tomllib
+
+import pytest
 
 from fingertip.sim.physics import cap_deflection_m, load, params_path
 from fingertip.sim.physics.params import from_dict

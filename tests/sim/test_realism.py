@@ -8,9 +8,7 @@ import pytest
 
 from fingertip.sim.paper_method import (
     PAPER_SPLIT,
-    WINDOW_FRAMES,
     TaskShakes,
-    force_session,
     mse,
     paper_force_model,
     paper_task_votes,
@@ -20,6 +18,8 @@ from fingertip.sim.paper_method import (
     task_shakes,
     trial_split,
     windows,
+    WINDOW_FRAMES,
+    force_session,
 )
 from fingertip.sim.physics import Realism, VirtualStrainSensor, calibration_sweep
 from fingertip.sim.physics import realism as rl
@@ -41,11 +41,10 @@ def test_switches():
 
 
 def test_parameter_file_is_strict():
-    from importlib import resources
-
     import tomllib
 
     from fingertip.sim.physics.realism import REALISM_FILE, from_dict
+    from importlib import resources
 
     text = resources.files("fingertip.sim.physics").joinpath(REALISM_FILE).read_text()
     data = tomllib.loads(text)

@@ -3,26 +3,8 @@ sections 5 and 6."""
 from __future__ import annotations
 
 from fingertip.protocol import (
-    Ack,
-    ErrorCode,
-    GetInfo,
-    GetStats,
-    Info,
-    Log,
-    Nack,
-    Ping,
-    ResetCounters,
-    Sample,
-    SetGain,
-    SetPower,
-    SetRate,
-    SetTareOffsets,
-    Start,
-    Stats,
-    Stop,
-    StreamDecoder,
-    Tare,
-    encode,
+    Ack, ErrorCode, GetInfo, GetStats, Info, Log, Nack, Ping, ResetCounters, Sample, SetGain,
+    SetPower, SetRate, Start, Stats, Stop, StreamDecoder, Tare, SetTareOffsets, encode,
 )
 from fingertip.sim import VirtualFirmware
 

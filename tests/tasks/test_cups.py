@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fingertip.tasks.cups import CupConfig, count_rims, unstack
 from fingertip.sim.experiment import cups_table, run_cups
 from fingertip.sim.world.cups import approach_height, make_cup_world
-from fingertip.tasks.cups import CupConfig, count_rims, unstack
 
 TRIALS = 36
 

@@ -1,8 +1,9 @@
 """``fingertip experiment``: runs, prints the paper's tables, refuses bad arguments."""
 from __future__ import annotations
 
-import json
 import re
+
+import json
 
 import pytest
 

@@ -6,7 +6,7 @@ import pytest
 
 from fingertip.events.slip import SlipDetector
 from fingertip.sim.physics import AudioChain, Excitation
-from fingertip.sim.physics.grasp import HELD_OBJECTS, G, GraspSlip, HeldObject
+from fingertip.sim.physics.grasp import G, HELD_OBJECTS, GraspSlip, HeldObject
 from fingertip.sim.physics.vibration import place
 from fingertip.sim.world.slip import SlipHand, SlipTrial, run_hold_trial, slip_trials
 from fingertip.tasks.hold import CoulombLaw, HoldConfig, hold, split_force

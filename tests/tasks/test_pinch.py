@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from fingertip.tasks import PinchConfig, PinchOutcome, demonstrate_threshold, pinch
 from fingertip.sim.world.demonstration import demonstrate
 from fingertip.sim.world.hand import CHIP, TOFU, Fault, make_world
-from fingertip.tasks import PinchConfig, PinchOutcome, demonstrate_threshold, pinch
 
 TRIALS = 25
 CASES = {"tofu": (TOFU, 0.5, 0.05), "chip": (CHIP, 0.1, 0.005)}

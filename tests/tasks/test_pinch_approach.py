@@ -11,8 +11,8 @@ from fingertip.events.contact_set import ContactSet
 from fingertip.events.reflex import OnsetDetector
 from fingertip.sim import pinch_speed as ps
 from fingertip.sim.world.approach_hand import ACCEL_MM_S2, COMMAND_S, ApproachHand
-from fingertip.sim.world.hand import CHIP, FINGERS, TOFU, make_world
 from fingertip.tasks import PinchConfig, PinchOutcome, pinch
+from fingertip.sim.world.hand import CHIP, FINGERS, TOFU, make_world
 
 
 def _hand(rate=80.0, spec=TOFU, seed=3):

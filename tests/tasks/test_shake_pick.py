@@ -9,8 +9,8 @@ import pytest
 import fingertip.tasks as tasks
 from fingertip.models.vibration.classify import VibrationClassifier
 from fingertip.sim.experiment import BOX_GRIP_Z_MM, run_shake, shake_table
-from fingertip.sim.world.boxes import BOX_X_MM, make_box_world, shake_model_path
 from fingertip.tasks.shake_pick import ShakeConfig, read_box, shake_and_pick
+from fingertip.sim.world.boxes import BOX_X_MM, make_box_world, shake_model_path
 
 TRIALS = 56
 

@@ -13,21 +13,12 @@ never silent. sounddevice is imported only when a live source starts (or devices
 listed), so that a sound server started by a program (or a test) is seen by PortAudio.
 This layer imports nothing above ``fingertip.protocol``. See docs/audio.md.
 """
-from ..clockfit import FrameClock
 from .blocks import BlockSource
 from .chunk import AudioStats, Chunk
+from ..clockfit import FrameClock
 from .devices import (
-    InputDevice,
-    alsa_card_of,
-    alsa_cards,
-    find_alsa_card,
-    find_input_device,
-    import_sounddevice,
-    list_input_devices,
-    refresh_devices,
-    supported_rates,
-    usb_hub_of,
-    usb_path_of_alsa_card,
+    InputDevice, alsa_card_of, alsa_cards, find_alsa_card, find_input_device, import_sounddevice,
+    list_input_devices, refresh_devices, supported_rates, usb_hub_of, usb_path_of_alsa_card,
     usb_serial_of_alsa_card,
 )
 from .file import FileSource
@@ -35,13 +26,8 @@ from .live import SoundDeviceSource
 from .ring import RingBuffer
 from .simulated import SimulatedSource
 from .source import (
-    AudioBackendError,
-    AudioDeviceNotFound,
-    AudioError,
-    AudioFileError,
-    AudioSettingsError,
-    AudioSource,
-    RingSource,
+    AudioBackendError, AudioDeviceNotFound, AudioError, AudioFileError, AudioSettingsError,
+    AudioSource, RingSource,
 )
 
 __all__ = [

@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from ..clockfit import FrameClock
 from .chunk import AudioStats, Chunk
+from ..clockfit import FrameClock
 from .devices import InputDevice, find_input_device, import_sounddevice, supported_rates
 from .source import AudioBackendError, AudioSettingsError, RingSource
 

@@ -15,9 +15,8 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from ..badfile import reports_bad_files
 from .argtypes import number
-
+from ..badfile import reports_bad_files
 log = logging.getLogger("fingertip")
 
 

@@ -30,14 +30,14 @@ def _cmd_record(args: argparse.Namespace) -> int:
     fingertip live or from --fingertip-csv). --virtual runs it all on a virtual fingertip
     with a simulated RDT sensor on 127.0.0.1."""
     from ..device import Fingertip, FingertipError
-    from ..models.force.align import AlignmentError
-    from ..models.force.calib_session import chosen_text, fit_run, join_csvs, record_and_join
-    from ..models.force.calibrate import CalibrationError
     from ..network import ExtraMissing  # light: the transports import their extras lazily
     from ..protocol import ProtocolVersionError
     from ..reference import ReferenceError
     from ..reference.rdt import RdtClient
     from ..transport import DeviceNotFound, TransportError
+    from ..models.force.align import AlignmentError
+    from ..models.force.calib_session import chosen_text, fit_run, join_csvs, record_and_join
+    from ..models.force.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
                                                     flush=True))
@@ -102,10 +102,10 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     three per direction, both axes), and the models are fitted on the settled readings
     (docs/bring-up.md). --virtual: the simulator hangs the weights."""
     from ..device import Fingertip, FingertipError
-    from ..models.force.calibrate import CalibrationError, fit_calibration
-    from ..models.force.weights import DIRECTIONS, PromptWeightsGuide, record_weights
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
+    from ..models.force.calibrate import CalibrationError, fit_calibration
+    from ..models.force.weights import DIRECTIONS, PromptWeightsGuide, record_weights
 
     dirs = [d.strip().upper() for d in args.directions.split(",")]
     bad = [d for d in dirs if d not in DIRECTIONS]

@@ -53,12 +53,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
     polarity and channel mapping by guided presses, the piezo by guided taps, and the link.
     Prints a table of pass / warn / fail with a one-line fix for each failure, writes a JSON
     report, and exits 1 when something failed (docs/bring-up.md)."""
-    from ..check.guide import NoPromptGuide, PromptGuide
-    from ..check.probe import DeviceProbe
-    from ..check.run import run_check
     from ..device import Fingertip, FingertipError
     from ..protocol import ProtocolVersionError
     from ..transport import DeviceNotFound, TransportError
+    from ..check.guide import NoPromptGuide, PromptGuide
+    from ..check.probe import DeviceProbe
+    from ..check.run import run_check
 
     if args.fault and not args.virtual:
         log.error("--fault needs --virtual (faults are simulated)")

@@ -16,8 +16,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..badfile import FILE_ERRORS, reports_bad_files
 from .argtypes import number
+from ..badfile import FILE_ERRORS, reports_bad_files
 
 if TYPE_CHECKING:
     from ..models.vibration.features import FeatureConfig

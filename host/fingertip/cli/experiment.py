@@ -34,8 +34,8 @@ def _json_safe(x):
 def _cmd_experiment(args: argparse.Namespace) -> int:
     """Run the paper's protocol on the virtual fingertips of a simulated four-finger hand
     (seeds SEED .. SEED + N - 1, each varying the world) and print the results table."""
-    from ..sim import experiment as ex
     from ..sim.dataset import Progress
+    from ..sim import experiment as ex
 
     n = args.trials or DEFAULT_TRIALS[args.protocol]
     if args.json is not None:

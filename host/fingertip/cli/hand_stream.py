@@ -8,8 +8,8 @@ import sys
 import time
 
 from ..device import FingertipError
-from ..hand_args import HandSpec
 from .frame_text import frame_json, frame_line
+from ..hand_args import HandSpec
 
 log = logging.getLogger("fingertip")
 

@@ -16,11 +16,10 @@ from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 
-from ..badfile import reports_bad_files
-from ..hand_args import add_hand_args, hand_spec_from_args
 from .argtypes import dispatch, number
+from ..badfile import reports_bad_files
 from .frame_text import frame_json, frame_line
-
+from ..hand_args import add_hand_args, hand_spec_from_args
 log = logging.getLogger("fingertip")
 
 
@@ -59,6 +58,7 @@ def _cmd_record(args: argparse.Namespace) -> int:
     from ..device import FingertipError
     from ..hand_args import hand_audio_from_args
     from ..protocol import ProtocolVersionError
+    from ..transport import DeviceNotFound, TransportError
     from ..record.recorder import RecorderError
     from ..record.schemas import check_name
     from ..record.session import (
@@ -68,7 +68,6 @@ def _cmd_record(args: argparse.Namespace) -> int:
         open_audio,
         record_fingertip,
     )
-    from ..transport import DeviceNotFound, TransportError
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network

@@ -14,9 +14,9 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from .argtypes import number
 from ..badfile import reports_bad_files
 from ..sim.faults import FAULTS
-from .argtypes import number
 
 log = logging.getLogger("fingertip")
 
@@ -27,8 +27,8 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
     import threading
 
     from ..sim import VirtualFirmware
-    from ..sim.physics import Idle, VirtualStrainSensor
     from ..sim.pty_device import PtyDevice
+    from ..sim.physics import Idle, VirtualStrainSensor
 
     if args.fault:
         from ..sim.bringup import VirtualUnit

@@ -1,12 +1,6 @@
 """Device layer: a fingertip's commands, streams, counters and clock mapping."""
 from .fingertip import (
-    BridgeStats,
-    CommandFailed,
-    CommandTimeout,
-    Fingertip,
-    FingertipError,
-    Frame,
-    NotConnected,
+    BridgeStats, CommandFailed, CommandTimeout, Fingertip, FingertipError, Frame, NotConnected,
     Settings,
 )
 from .hand import FingerFrame, Hand

@@ -1,11 +1,6 @@
 """Events layer: contact and vibration events detected on force and audio signals."""
 from .detect import (
-    Event,
-    contact_intervals,
-    heights_at,
-    refine_contacts,
-    rms_envelope,
-    robust_sigma,
+    Event, contact_intervals, heights_at, refine_contacts, rms_envelope, robust_sigma,
     vibration_onsets,
 )
 

@@ -176,7 +176,7 @@ class SimWeightsGuide:
 
     def place(self, direction: str, index: int) -> float | None:
         # The procedure's directions and timing live in the layer above: import at use.
-        from ..models.force.weights import DIRECTIONS, RECORD_S, SETTLE_S, G
+        from ..models.force.weights import DIRECTIONS, G, RECORD_S, SETTLE_S
 
         if index >= len(self.masses):
             return None

@@ -25,10 +25,10 @@ from dataclasses import dataclass
 from functools import partial
 
 from ..events.contact_set import ContactSet
-from ..tasks.pinch import PinchConfig, pinch
 from .experiment import PINCH_OBJECTS
-from .world.approach_hand import ApproachHand
+from ..tasks.pinch import PinchConfig, pinch
 from .world.hand import FINGERS, make_world
+from .world.approach_hand import ApproachHand
 
 log = logging.getLogger(__name__)
 

@@ -7,12 +7,8 @@ import numpy as np
 import pytest
 
 from fingertip.models.force.align import AlignmentError, estimate_offset, join
-from fingertip.models.force.calib_record import (
-    FingertipRecording,
-    align_and_join,
-    fit_joined,
-    trials_of,
-)
+from fingertip.models.force.calib_record import (FingertipRecording, align_and_join, fit_joined,
+                                                 trials_of)
 from fingertip.reference import ReferenceError, ReferenceSamples
 from fingertip.sim.reference_run import simulate_reference_run
 

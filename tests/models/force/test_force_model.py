@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from fingertip.models.force.calibrate import fit_model
-from fingertip.models.force.force_load import ModelMismatch, check_model
 from fingertip.models.force.runtime import ForceModel
-from fingertip.sim.bringup import VirtualUnit
+from fingertip.models.force.force_load import ModelMismatch, check_model
 from fingertip.sim.pty_device import PtyDevice
+from fingertip.sim.bringup import VirtualUnit
 
 
 def model(tmp_path, name="m.onnx", **meta):

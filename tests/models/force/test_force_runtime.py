@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from fingertip import Frame
-from fingertip.cli.calibrate import add_parsers
 from fingertip.device import FingerFrame
 from fingertip.models.force.calibrate import (
     INT24_MAX,
@@ -21,7 +20,8 @@ from fingertip.models.force.calibrate import (
     from_arrays,
     model_metadata,
 )
-from fingertip.models.force.runtime import ForceModel, ForceStatus, FrameForce, InvalidCounts
+from fingertip.cli.calibrate import add_parsers
+from fingertip.models.force.runtime import FrameForce, ForceModel, ForceStatus, InvalidCounts
 from fingertip.sim.physics import VirtualStrainSensor, calibration_sweep
 
 

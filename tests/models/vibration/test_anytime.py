@@ -9,8 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fingertip.models.nets.linear import to_onnx, train_logistic
-from fingertip.models.nets.mlp import OnnxModel
 from fingertip.models.vibration.anytime import (
     at_time,
     decide,
@@ -22,6 +20,8 @@ from fingertip.models.vibration.anytime import (
 from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.classify import Dataset, Labelled
 from fingertip.models.vibration.features import FeatureConfig, as_recording, log_window, pooled
+from fingertip.models.nets.linear import to_onnx, train_logistic
+from fingertip.models.nets.mlp import OnnxModel
 from fingertip.models.vibration.reliability import (
     apply_temperature,
     auroc,

@@ -17,7 +17,6 @@ from scipy.signal import resample_poly
 
 from fingertip.audio import FileSource
 from fingertip.cli.classify import main as cli
-from fingertip.models.vibration.candidates import CANDIDATES
 from fingertip.models.vibration.classify import (
     DatasetError,
     ModelError,
@@ -27,6 +26,7 @@ from fingertip.models.vibration.classify import (
     stratified_folds,
 )
 from fingertip.models.vibration.features import FeatureError, as_recording, read_recording
+from fingertip.models.vibration.candidates import CANDIDATES
 from fingertip.models.vibration.material import train_material
 from fingertip.models.vibration.reliability import apply_temperature
 from fingertip.sim.physics import PAPER_SEVEN, Slide, simulate

@@ -8,9 +8,8 @@ import pytest
 import soundfile as sf
 
 from fingertip.audio import FileSource
-from fingertip.cli.classify import main as cli
-from fingertip.models.nets.cnn import CnnSpec, SmallResNet, train_cnn
 from fingertip.models.nets.mlp import OnnxModel
+from fingertip.cli.classify import main as cli
 from fingertip.models.vibration.classify import (
     DatasetError,
     Evaluation,
@@ -19,6 +18,7 @@ from fingertip.models.vibration.classify import (
     majority_vote,
     paired_difference,
 )
+from fingertip.models.nets.cnn import CnnSpec, SmallResNet, train_cnn
 from fingertip.models.vibration.shake import ModelResult, compare, train_shake
 from fingertip.sim.physics import BOX_CONTENTS, BoxShake, simulate
 

@@ -10,9 +10,9 @@ import soundfile as sf
 from scipy.signal import butter, sosfilt
 
 from fingertip.models.vibration.augment import NONE
-from fingertip.models.vibration.candidates import TIE
 from fingertip.models.vibration.classify import VibrationClassifier, load_folder
 from fingertip.models.vibration.mains_trial import recordings_with_lines
+from fingertip.models.vibration.candidates import TIE
 from fingertip.models.vibration.material import train_material
 
 RATE = 8000

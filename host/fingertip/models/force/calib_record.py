@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from ...reference import ReferenceError, ReferenceSamples
-from ..nets.figures import pyplot, save_png
 from .align import Alignment, AlignmentError, Joined, estimate_offset, join
+from ..nets.figures import pyplot, save_png
 from .calibrate import (
     CHANNELS,
     CalibrationReport,

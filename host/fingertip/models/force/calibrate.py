@@ -47,23 +47,11 @@ from .calibration.errors import (
     SingleDirectionError,
     TooFewRowsError,
 )
-from .calibration.evaluate import (
-    _by,
-    angle_keys,
-    extreme_inputs,
-    float32_error,
-    measure_latency,
-    rmse,
-)
+from .calibration.evaluate import (_by, angle_keys, extreme_inputs, float32_error,
+                                   measure_latency, rmse)
 from .calibration.limits import CHANNELS, MAX_CONDITION, MAX_SATURATED_FRACTION, Progress
-from .calibration.maps import (
-    DEFAULT_MODELS,
-    expand_models,
-    fit_affine,
-    fit_mlp,
-    fit_model,
-    fit_poly,
-)
+from .calibration.maps import (DEFAULT_MODELS, expand_models, fit_affine, fit_mlp, fit_model,
+                               fit_poly)
 from .calibration.report import CalibrationReport, ModelResult, _plot, model_metadata
 from .calibration.select import choose
 from .calibration.split import split_groups, split_holdout

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.special import softmax
 
 from .onnx_io import onnx_builder, save_graph
 
@@ -222,7 +223,7 @@ class SmallResNet:
             g = z
         if c is not None:
             c["out_in"] = g
-        return _softmax(g @ prm["out.w"] + prm["out.b"])
+        return softmax(g @ prm["out.w"] + prm["out.b"], axis=1)
 
     def _backward(self, c: dict, dlogits: np.ndarray, prm: dict[str, np.ndarray]
                   ) -> dict[str, np.ndarray]:
@@ -325,12 +326,6 @@ class SmallResNet:
                                             "frames": sp.frames, "bands": sp.bands}),
                 "n_params": str(self.n_params)}
         return save_graph(graph, path, {**meta, **(metadata or {})}, opset)
-
-
-def _softmax(z: np.ndarray) -> np.ndarray:
-    z = z - z.max(axis=1, keepdims=True)
-    e = np.exp(z)
-    return e / e.sum(axis=1, keepdims=True)
 
 
 @dataclass

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.special import log_softmax, softmax
 
 from .onnx_io import batch_graph, onnx_builder, save_graph
 
@@ -43,13 +44,7 @@ class Logistic:
         return ((np.asarray(x, np.float64) - self.x_mean) / self.x_std) @ self.w + self.b
 
     def forward(self, x: np.ndarray) -> np.ndarray:
-        return softmax(self.logits(x))
-
-
-def softmax(z: np.ndarray) -> np.ndarray:
-    z = z - z.max(axis=-1, keepdims=True)
-    e = np.exp(z)
-    return e / e.sum(axis=-1, keepdims=True)
+        return softmax(self.logits(x), axis=-1)
 
 
 def _fit(xs: np.ndarray, y: np.ndarray, k: int, l2: float, weights: np.ndarray,
@@ -63,10 +58,7 @@ def _fit(xs: np.ndarray, y: np.ndarray, k: int, l2: float, weights: np.ndarray,
     def f(theta: np.ndarray) -> tuple[float, np.ndarray]:
         w = theta[:d * k].reshape(d, k)
         b = theta[d * k:]
-        z = xs @ w + b
-        z -= z.max(axis=1, keepdims=True)
-        lse = np.log(np.exp(z).sum(axis=1))
-        logp = z - lse[:, None]
+        logp = log_softmax(xs @ w + b, axis=1)
         loss = -float(np.sum(weights * np.sum(onehot * logp, axis=1))) / wsum \
             + 0.5 * l2 * float(np.sum(w * w))
         g = (np.exp(logp) - onehot) * (weights / wsum)[:, None]
@@ -132,7 +124,7 @@ def _choose_l2(xs: np.ndarray, y: np.ndarray, k: int, g: np.ndarray, weights: np
     for l2 in sorted(L2_GRID, reverse=True):  # strong to weak: warm starts converge fast
         w, b = _fit(xs[tr], y[tr], k, l2, weights[tr], theta)
         theta = np.concatenate([w.ravel(), b])
-        p = softmax(xs[te] @ w + b)
+        p = softmax(xs[te] @ w + b, axis=1)
         loss = -float(np.sum(weights[te] * np.log(p[np.arange(len(p)), y[te]] + 1e-12))
                       / weights[te].sum())
         if loss < best - 1e-9:

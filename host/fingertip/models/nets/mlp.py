@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
+from scipy.special import softmax
 
 from .onnx_io import batch_graph, onnx_builder, open_session, save_graph
 
@@ -59,14 +60,8 @@ class MLP:
         """Reference forward pass in float64 (what the ONNX graph must reproduce)."""
         h = self.logits(x)
         if self.task == "classification":
-            return _softmax(h)
+            return softmax(h, axis=-1)
         return h * self.y_scale + self.y_offset
-
-
-def _softmax(z: np.ndarray) -> np.ndarray:
-    z = z - z.max(axis=1, keepdims=True)
-    e = np.exp(z)
-    return e / e.sum(axis=1, keepdims=True)
 
 
 def _check_xy(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -137,7 +132,7 @@ def train_mlp(x: np.ndarray, y: np.ndarray, *, hidden: tuple[int, ...] = (32, 32
             acts.append(h)
         out = acts[-1]
         if task == "classification":
-            p = _softmax(out)
+            p = softmax(out, axis=1)
             loss = -np.mean(np.sum(tb * np.log(p + 1e-12), axis=1))
             delta = (p - tb) / len(xb)
         else:

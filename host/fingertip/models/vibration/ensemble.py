@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.special import log_softmax
+from scipy.special import log_softmax, softmax
 
-from ..nets.linear import Logistic, logit_nodes, softmax
+from ..nets.linear import Logistic, logit_nodes
 from ..nets.mlp import MLP, layer_nodes
 from ..nets.onnx_io import batch_graph, onnx_builder, save_graph
 
@@ -56,7 +56,7 @@ class Ensemble:
         return np.mean([log_softmax(m.logits(x), axis=-1) for m in self.members], axis=0)
 
     def forward(self, x: np.ndarray) -> np.ndarray:
-        return softmax(self.log_probs(x))
+        return softmax(self.log_probs(x), axis=-1)
 
     def describe(self) -> list[dict]:
         return [{"model": type(m.model).__name__, "inputs": len(m.columns),

@@ -13,8 +13,8 @@ from typing import Any
 from ...audio import AudioSource, SoundDeviceSource
 from ...device import Fingertip, FingertipError
 from ...device.pairing import sound_card_for_port
-from ..force.force_load import ForceWindow, ModelMismatch, force_model_for
 from .classify import Classification, Prediction, VibrationClassifier
+from ..force.force_load import ForceWindow, ModelMismatch, force_model_for
 
 log = logging.getLogger(__name__)
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.special import log_softmax, softmax
 
 from ..nets.figures import pyplot, save_png
 
@@ -23,10 +24,7 @@ ECE_BINS = 10
 
 def apply_temperature(probs: np.ndarray, t: float) -> np.ndarray:
     """``softmax(log(p) / t)`` row-wise."""
-    z = np.log(np.clip(np.asarray(probs, np.float64), 1e-12, None)) / t
-    z -= z.max(axis=-1, keepdims=True)
-    e = np.exp(z)
-    return e / e.sum(axis=-1, keepdims=True)
+    return softmax(np.log(np.clip(np.asarray(probs, np.float64), 1e-12, None)) / t, axis=-1)
 
 
 def fit_temperature(probs: np.ndarray, labels: np.ndarray,
@@ -43,10 +41,8 @@ def fit_temperature(probs: np.ndarray, labels: np.ndarray,
     logp = np.log(np.clip(p, 1e-12, None))
 
     def loss(log_t: float) -> float:
-        z = logp / math.exp(log_t)
-        z = z - z.max(axis=1, keepdims=True)
-        lse = np.log(np.exp(z).sum(axis=1))
-        return float(-np.sum(w * (z[np.arange(len(y)), y] - lse)) / w.sum())
+        z = log_softmax(logp / math.exp(log_t), axis=1)
+        return float(-np.sum(w * z[np.arange(len(y)), y]) / w.sum())
 
     res = minimize_scalar(loss, bounds=tuple(math.log(v) for v in T_RANGE), method="bounded",
                           options={"xatol": 1e-4})

@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..nets.cnn import CnnSpec, SmallResNet, blas_threads, train_cnn
 from .classify import (
     Dataset,
     DatasetError,
@@ -53,6 +52,7 @@ from .classify import (
     stack,
     validation_split,
 )
+from ..nets.cnn import CnnSpec, SmallResNet, blas_threads, train_cnn
 from .features import FeatureConfig, as_recording, pooled
 
 log = logging.getLogger(__name__)

@@ -15,8 +15,9 @@ truth is known without simulating anything). It declares the signals it needs in
 """
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
+
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property

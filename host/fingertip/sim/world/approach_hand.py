@@ -33,11 +33,11 @@ from collections.abc import Mapping
 import numpy as np
 
 from ...tasks.interfaces import AudioBlock, FrameSet
+from .hand import FINGERS, SimHand, SimWorld
 from ..physics import AudioChain, Excitation
 from ..physics.disturbances import MOTOR, motor_noise, room_noise, speech
 from ..physics.touch import LINK_MM, MAKE_N_PER_MM_S
 from ..physics.vibration import half_sine, place, smooth_noise
-from .hand import FINGERS, SimHand, SimWorld
 
 COMMAND_S = 0.002
 """From the host's command to the finger's motor (a serial command; assumed)."""

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...tasks.interfaces import AudioBlock
 from ..physics import AudioChain, Scene
+from ...tasks.interfaces import AudioBlock
 
 
 @dataclass

@@ -28,7 +28,6 @@ import numpy as np
 
 from ..dataset import TASK_AMPLITUDE_GAIN, TASK_BOX_ITEMS, TASK_MAINS_HZ, TASK_PREAMP_GAIN
 from ..physics import BoxShake, load
-from .cache import cached
 from .hand import (
     FINGERS,
     ObjectSpec,
@@ -37,6 +36,7 @@ from .hand import (
     SimObject,
     SimWorld,
 )
+from .cache import cached
 
 log = logging.getLogger(__name__)
 

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ...device import Frame
-from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from ..physics import AudioChain, VirtualStrainSensor, calibration_sweep
+from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from .audio_bus import AudioBus
 from .cache import cached
 
@@ -56,8 +56,8 @@ def unit_force_model(unit_seed: int):
     """The force model of virtual unit ``unit_seed``, fitted once on its calibration sweep."""
     from ... import __version__, models
     from ...models.force.calibrate import fit_calibration, from_arrays
-    from ...models.force.runtime import ForceModel
     from ...models.nets.fit_cache import fit_key
+    from ...models.force.runtime import ForceModel
     from .. import physics
 
     fit = {"unit_seed": unit_seed, "rate_sps": RATE_SPS, "tare_samples": _TARE_SAMPLES,

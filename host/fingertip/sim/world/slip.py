@@ -20,12 +20,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...device import Frame
-from ...tasks.interfaces import AudioBlock, FrameSet, RobotHand
 from ..physics import AudioChain, Excitation, VirtualStrainSensor
 from ..physics.disturbances import motor_noise
 from ..physics.grasp import GraspSlip, HeldObject
 from ..physics.touch import LINK_MM
 from ..physics.vibration import place
+from ...tasks.interfaces import AudioBlock, FrameSet, RobotHand
 from .hand import RATE_SPS, tare_counts, unit_force_model
 
 SLIP_FINGERS = ("f0", "f1")
