@@ -318,7 +318,28 @@ def speed_figures() -> dict[str, float]:
     return out
 
 
-PARTS = {"speed": speed_figures}
+def texture_figures() -> dict[str, float]:
+    """The 30 random textures alone (`run.py vibration:textures`)."""
+    from fingertip.models.vibration.material import train_material
+    from tests.bench.texture_set import texture_set
+
+    with tempfile.TemporaryDirectory(prefix="bench_vibration_") as tmp:
+        root = Path(tmp)
+        texture_set(root / "textures")
+        rt = train_material(root / "textures", root / "rt", folds=5, seed=SEED, plot=False)
+    _LAST["textures"] = rt.report
+    return _texture_keys(rt.report)
+
+
+def _texture_keys(rep: dict) -> dict[str, float]:
+    base = rep["candidates"]["baseline"]["accuracy_by_time"]["whole"]["accuracy"]
+    return {"material_textures_1s_accuracy": round(rep["accuracy_by_time"]["whole"]
+                                                   ["accuracy"], 4),
+            "material_textures_1s_accuracy_baseline": round(base, 4),
+            "material_textures_1s_chosen_is_ensemble": float(rep["model"] == "ensemble")}
+
+
+PARTS = {"speed": speed_figures, "textures": texture_figures}
 
 
 def public_sets(root: Path) -> dict[str, float]:
@@ -423,6 +444,8 @@ def tables(r: dict[str, float]) -> dict[str, str]:
         return {}
     out = {}
     sets = {k: v for k, v in _LAST.get("speed", {}).items()}
+    if "textures" in _LAST and "rt" not in _LAST:
+        sets["30 textures x 12 slides of 1 s, 3 kHz"] = _LAST["textures"]
     if "r8" in _LAST:
         sets.update({"1 s of 700 slides, 8 kHz": _LAST["r8"],
                      "1 s of 700 slides, 2.2 kHz": _LAST["r2"],
