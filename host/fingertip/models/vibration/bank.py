@@ -5,7 +5,7 @@ the log bands and the baseline's linear bins of one short-time spectrum per reco
 summarised over each window by :data:`~.candidates.BANK_STATS` (mean, deviation,
 frame-to-frame change, 90th percentile). Each statistic of each band is computed the way
 the candidate's own pipeline computes it at run time (each view normalised on its own:
-:func:`~.features.log_window`'s ``split``), so a candidate's columns equal its own
+:func:`~.window_features.log_window`'s ``split``), so a candidate's columns equal its own
 features up to float32 rounding of the shared band matrix (a test checks it). The CNN's
 spectrogram windows come from the same spectrum's log bands. The trials (the mains notch,
 augmented copies) build their own bank once and share it the same way.
