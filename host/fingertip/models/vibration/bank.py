@@ -2,12 +2,13 @@
 
 Every growing-window candidate (:mod:`.candidates`) reads columns of one set of features:
 the log bands and the baseline's linear bins of one short-time spectrum per recording,
-summarised over each window by :data:`~.candidates.BANK_STATS` (mean, deviation,
-frame-to-frame change, 90th percentile). Each statistic of each band is computed the way
-the candidate's own pipeline computes it at run time (each view normalised on its own:
-:func:`~.window_features.log_window`'s ``split``), so a candidate's columns equal its own
-features up to float32 rounding of the shared band matrix (a test checks it). The CNN's
-spectrogram windows come from the same spectrum's log bands. The trials (the mains notch,
+summarised over each window by :data:`~.candidates.BANK_STATS` (mean, deviation and
+frame-to-frame change of every column; 90th percentile of the log bands). Each statistic
+of each band is computed the way the candidate's own pipeline computes it at run time
+(each view normalised on its own: :func:`~.window_features.log_window`'s ``split``), so a
+candidate's columns equal its own features up to float32 rounding of the shared band
+matrix (a test checks it). The CNN's spectrogram windows come from the same spectrum's log
+bands. The trials (the mains notch,
 augmented copies) build their own bank once and share it the same way.
 """
 from __future__ import annotations
@@ -60,6 +61,7 @@ class Bank:
     """The shared features of every recording of a dataset (see the module text)."""
 
     pipe: FeaturePipeline
+    p90: FeaturePipeline
     train: list[Windows]
     test: list[Windows]
     seconds: float
@@ -76,7 +78,22 @@ class Bank:
 
 
 def bank_pipeline(setup: Setup) -> FeaturePipeline:
-    return FeaturePipeline(bank_config(setup.cfg), setup.spec(BANK_STATS))
+    """The shared windows' first statistics (:data:`~.candidates.BANK_STATS` but the
+    last) over every column."""
+    return FeaturePipeline(bank_config(setup.cfg), setup.spec(BANK_STATS[:-1]))
+
+
+def p90_pipeline(setup: Setup) -> FeaturePipeline:
+    """The last statistic (the 90th percentile) over the log bands only: the candidates
+    that read it read no other (a percentile costs more than the other three together)."""
+    return FeaturePipeline(setup.cfg, setup.spec(BANK_STATS[-1:]))
+
+
+def _shared(pipe: FeaturePipeline, p90: FeaturePipeline, rec: Recording, training: bool,
+            power: np.ndarray) -> Windows:
+    w = pipe.windows(rec, training, power)
+    q = p90.windows(rec, training, power[:, :p90.cfg.n_bands])
+    return replace(w, inputs=np.hstack([w.inputs, q.inputs]))
 
 
 def build_bank(setup: Setup, ds: Dataset, cands: Sequence[Candidate], token: str,
@@ -84,22 +101,22 @@ def build_bank(setup: Setup, ds: Dataset, cands: Sequence[Candidate], token: str
     """One short-time spectrum per recording of ``ds``; its shared windows, and the own
     windows of the candidates of ``cands`` without columns (from the same spectrum)."""
     t0 = time.perf_counter()
-    pipe = bank_pipeline(setup)
+    pipe, p90 = bank_pipeline(setup), p90_pipeline(setup)
     nb = setup.cfg.n_bands
     others = [c for c in cands if c.cols is None]
     train, test = [], []
     own: dict[str, tuple[list, list]] = {c.name: ([], []) for c in others}
     for it in ds.items:
         power = pipe.power(it.rec)
-        train.append(pipe.windows(it.rec, True, power))
-        test.append(pipe.windows(it.rec, power=power))
+        train.append(_shared(pipe, p90, it.rec, True, power))
+        test.append(_shared(pipe, p90, it.rec, False, power))
         for c in others:  # log bands only: the spectrum's first columns
             own[c.name][0].append(c.pipe.windows(it.rec, True, power[:, :nb]))
             own[c.name][1].append(c.pipe.windows(it.rec, power=power[:, :nb]))
         if done is not None:
             done()
     secs = time.perf_counter() - t0
-    return Bank(pipe, train, test, secs, token,
+    return Bank(pipe, p90, train, test, secs, token,
                 {k: CandidateWindows(tr, te, secs, token) for k, (tr, te) in own.items()})
 
 
@@ -123,7 +140,7 @@ def with_copies(bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
         others: dict[str, list] = {k: [bank.own[k].train[i]] for k in own_train}
         for r in copies if len(bank.train[i]) else []:
             power = pipe.power(r)
-            parts.append(_prefixes(pipe.windows(r, True, power)))
+            parts.append(_prefixes(_shared(pipe, bank.p90, r, True, power)))
             for c in cands:
                 if c.cols is None:
                     others[c.name].append(_prefixes(c.pipe.windows(r, True, power[:, :nb])))
@@ -136,7 +153,7 @@ def with_copies(bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
     token = f"{bank.token}+{augment.to_dict()}+{seed}"
     own = {k: CandidateWindows(own_train[k], bank.own[k].test, secs, token)
            for k in own_train}
-    return Bank(pipe, train, bank.test, secs, token, own)
+    return Bank(pipe, bank.p90, train, bank.test, secs, token, own)
 
 
 _FIELDS = ("inputs", "t_start", "t_end", "level_db", "clipped")

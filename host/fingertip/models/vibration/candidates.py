@@ -47,8 +47,8 @@ TIE = 0.005
 cross-validation's noise: candidates within it of the best are tied and the cheapest wins;
 a robustness (augmentation, the mains notch) that costs no more than it is taken."""
 BANK_STATS = ("mean", "std", "flux", "p90")
-"""The statistics of the shared features (:mod:`.bank`), in this order: the ensemble reads
-the first three over every column."""
+"""The statistics of the shared features (:mod:`.bank`), in this order: the first three
+over every column (the ensemble reads them all), the last over the log bands only."""
 
 Fit = Callable[[np.ndarray, np.ndarray, np.ndarray, list[str], int], Any]
 """(inputs, labels, recording of each row, classes, seed) -> a plain model."""
@@ -238,6 +238,8 @@ def bank_columns(cfg: FeatureConfig, stats: Sequence[str], linear: bool = False
     ``stats`` of the log bands (``linear``: of the linear bins)."""
     nb, total = cfg.n_bands, cfg.n_bands + baseline_bins(cfg)
     lo, hi = (nb, total) if linear else (0, nb)
+    if linear and BANK_STATS[-1] in stats:
+        raise ValueError(f"the shared {BANK_STATS[-1]} covers the log bands only")
     return np.concatenate([np.arange(lo, hi) + BANK_STATS.index(s) * total for s in stats])
 
 

@@ -57,7 +57,7 @@ def pooled(logwin: np.ndarray, stats: Sequence[str] = STATS) -> np.ndarray:
                                                                 + logwin.shape[-1:],
                                                                 logwin.dtype))
         elif s == "p90":
-            parts.append(np.percentile(logwin, 90, axis=-2).astype(logwin.dtype, copy=False))
+            parts.append(_percentile_over_time(logwin, 0.9))
         else:
             raise ValueError(f"unknown statistic {s!r} (one of {KNOWN_STATS})")
     return np.concatenate(parts, axis=-1)
@@ -86,3 +86,16 @@ def level_db(x: np.ndarray) -> float:
         return -math.inf
     ms = float(np.mean(np.square(x - x.mean())))
     return 10 * math.log10(ms) if ms > 0 else -math.inf
+
+
+def _percentile_over_time(logwin: np.ndarray, q: float) -> np.ndarray:
+    """``np.percentile(logwin, 100 q, axis=-2)`` (linear interpolation) by a partial sort
+    of contiguous rows: about twice as fast on the trainer's windows."""
+    n = logwin.shape[-2]
+    k = q * (n - 1)
+    lo = int(k)
+    hi = min(lo + 1, n - 1)
+    rows = np.ascontiguousarray(np.swapaxes(logwin, -1, -2))
+    part = np.partition(rows, (lo, hi), axis=-1)
+    return (part[..., lo] + (k - lo) * (part[..., hi] - part[..., lo])).astype(logwin.dtype,
+                                                                              copy=False)
