@@ -99,7 +99,8 @@ def _stft_speed() -> dict[str, float]:
     from scipy.signal import ShortTimeFFT
     from scipy.signal.windows import hann
 
-    from fingertip.models.vibration.features import FeatureConfig, Spectrogrammer, Stft
+    from fingertip.models.vibration.features import FeatureConfig
+    from fingertip.models.vibration.spectrogram import Spectrogrammer, Stft
 
     fs = 44100
     x = np.random.default_rng(1).normal(0, 0.1, fs).astype(np.float32)

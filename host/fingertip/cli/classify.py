@@ -68,8 +68,8 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     recordings, any rate from 1 to 384 kHz, any length from 0.1 s): windows and bands
     adapted to the recordings, answers that grow with the slide (0.25 s, 0.5 s, ... the
     whole recording), candidate models (a log-spectrum logistic-regression baseline,
-    logistic regression on log bands, an MLP, an ensemble of these, a CNN) chosen by
-    cross-validation by recording,
+    logistic regression on log bands, an MLP, an ensemble of these, an RBF SVM, boosted
+    trees, a CNN) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.vibration.augment import AugmentConfig
     from ..models.vibration.candidates import CANDIDATES
@@ -85,7 +85,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               epochs=args.epochs, folds=args.folds,
                               models=args.models or CANDIDATES,
                               augment=AugmentConfig(copies=args.augment),
-                              cnn_budget=args.cnn_budget)
+                              cnn_budget=args.cnn_budget, jobs=args.jobs)
 
     _check_out(args.out)
     return _run_training(train, material_summary_lines, args.json)
@@ -308,7 +308,7 @@ def add_parsers(sub) -> None:
                    help="hidden layer sizes of the MLP candidate (default 64)")
     m.add_argument("--models", type=_models, default=None, metavar="NAME[,NAME...]",
                    help="candidate models compared by cross-validation (default "
-                        "baseline,linear,mlp,ensemble,cnn; the CNN only within "
+                        "baseline,linear,mlp,ensemble,svm,boost,cnn; the CNN only within "
                         "--cnn-budget)")
     m.add_argument("--cnn-budget", type=number(float, 0, 1e12, lo_open=True),
                    default=None, metavar="N",
@@ -321,6 +321,9 @@ def add_parsers(sub) -> None:
                         "free (default 1; 0: none)")
     m.add_argument("--epochs", type=number(int, 0, 100_000, lo_open=True), default=300,
                    help="most training epochs (default 300; early stopping)")
+    m.add_argument("--jobs", type=number(int, 0, 1024, lo_open=True), default=None,
+                   metavar="N", help="worker processes for the cross-validation's folds "
+                                     "(default: every core; the result is the same)")
     m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",
                    help="K-fold cross-validation by recording instead of one split "
                         "(default 1: one split, --test-fraction held out)")

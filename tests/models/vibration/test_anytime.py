@@ -17,9 +17,10 @@ from fingertip.models.vibration.anytime import (
     span_features,
     training_bounds,
 )
-from fingertip.models.vibration.candidates import choose_setup
+from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.classify import Dataset, Labelled
-from fingertip.models.vibration.features import FeatureConfig, as_recording, log_window, pooled
+from fingertip.models.vibration.features import FeatureConfig, as_recording
+from fingertip.models.vibration.window_features import log_window, pooled
 from fingertip.models.nets.linear import to_onnx, train_logistic
 from fingertip.models.nets.mlp import OnnxModel
 from fingertip.models.vibration.reliability import (

@@ -17,12 +17,9 @@ from fingertip.models.vibration.augment import (
     motor,
     scale_frequencies,
 )
-from fingertip.models.vibration.candidates import (
-    augmented_copies,
-    candidate_windows,
-    candidates,
-    choose_setup,
-)
+from fingertip.models.vibration.bank import augmented_copies, candidate_windows
+from fingertip.models.vibration.candidates import candidates
+from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.classify import Dataset, Labelled
 from fingertip.models.vibration.features import as_recording
 

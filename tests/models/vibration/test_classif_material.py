@@ -301,12 +301,10 @@ def test_unknown_answers_for_a_class_left_out(data):
     """Plush fabric left out of training: its slides look less like any trained class
     than known slides do (ROC AUC of the unknown score), and the rule that keeps 95 % of
     known answers calls some of them unknown."""
-    from fingertip.models.vibration.candidates import (
-        candidate_windows,
-        candidates,
-        choose_setup,
-        unknown_auroc,
-    )
+    from fingertip.models.vibration.bank import candidate_windows
+    from fingertip.models.vibration.candidates import candidates
+    from fingertip.models.vibration.cross_validation import unknown_auroc
+    from fingertip.models.vibration.setup import choose_setup
 
     ds = load_folder(data / "8k")
     cand = candidates(choose_setup(ds), ("linear",))[0]

@@ -7,15 +7,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.models.vibration.band_noise import write_band_noise
-from fingertip.models.vibration.candidates import baseline_bins, candidates, choose_setup
+from fingertip.models.nets.linear import train_logistic
+from fingertip.models.nets.mlp import OnnxModel, train_mlp
+from fingertip.models.vibration.candidates import baseline_bins, candidates
+from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.classify import FeaturePipeline, VibrationClassifier, load_folder
 from fingertip.models.vibration.ensemble import Ensemble, Member, to_onnx
-from fingertip.models.vibration.features import (FeatureConfig, FeatureError, band_matrix,
-                                                 read_recording)
-from fingertip.models.nets.linear import train_logistic
+from fingertip.models.vibration.features import (
+    FeatureConfig,
+    FeatureError,
+    band_matrix,
+    read_recording,
+)
 from fingertip.models.vibration.material import train_material
-from fingertip.models.nets.mlp import OnnxModel, train_mlp
+from tests.models.vibration.band_noise import write_band_noise
 
 RATE = 8000
 

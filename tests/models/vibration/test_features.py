@@ -13,14 +13,15 @@ from fingertip.models.vibration.features import (
     N_BANDS,
     FeatureConfig,
     FeatureError,
-    Spectrogrammer,
-    Stft,
     as_recording,
     clipped_fraction,
+    read_recording,
+)
+from fingertip.models.vibration.spectrogram import Spectrogrammer, Stft
+from fingertip.models.vibration.window_features import (
     gather_windows,
     log_window,
     pooled,
-    read_recording,
     window_starts,
 )
 

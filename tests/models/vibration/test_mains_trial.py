@@ -106,11 +106,11 @@ def test_a_notch_that_costs_less_than_the_tie_is_kept(tmp_path, monkeypatch, mar
     it more than TIE below the plain model. The trial is asked for that very bound, and
     an accuracy just above or below it decides."""
     from fingertip.models.vibration import mains_trial
-    from fingertip.models.vibration.candidates import Trial
+    from fingertip.models.vibration.cross_validation import Trial
 
     seen = []
 
-    def trial(cand, cw, labels, folds, classes, seed, clean, need):
+    def trial(cand, cw, labels, folds, classes, seed, clean, need, **_):
         seen.append(need)
         acc = need + margin
         table = {"whole": {"seconds": None, "accuracy": acc, "recordings": len(labels)}}

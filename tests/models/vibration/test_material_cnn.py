@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.models.vibration.band_noise import write_band_noise
 from fingertip.models.vibration.augment import NONE, AugmentConfig
 from fingertip.models.vibration.classify import VibrationClassifier
 from fingertip.models.vibration.features import read_recording
 from fingertip.models.vibration.material import train_material
+from tests.models.vibration.band_noise import write_band_noise
 
 RATE = 8000
 
@@ -25,8 +25,9 @@ def folder(tmp_path_factory):
 
 def cnn_work_of(folder, n_fits: int) -> int:
     """The CNN candidate's projected work on ``folder``, counted here from its windows."""
-    from fingertip.models.vibration.candidates import (CNN_EPOCHS, candidate_windows, candidates,
-                                             choose_setup)
+    from fingertip.models.vibration.bank import candidate_windows
+    from fingertip.models.vibration.candidates import CNN_EPOCHS, candidates
+    from fingertip.models.vibration.setup import choose_setup
     from fingertip.models.vibration.classify import load_folder
 
     ds = load_folder(folder)
@@ -80,7 +81,7 @@ def test_augmentation_is_adopted_only_when_it_costs_no_accuracy(folder, tmp_path
 
 
 def test_best_case_completes_answers_with_right_and_certain_ones():
-    from fingertip.models.vibration.candidates import Answers, accuracy_by_time, best_case
+    from fingertip.models.vibration.scores import Answers, accuracy_by_time, best_case
 
     labels = np.array([0, 1, 1])
     t = np.array([0.25, 0.5, 1.0])

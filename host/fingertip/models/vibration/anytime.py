@@ -17,7 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .features import STATS, log_window, pooled
+from .features import STATS
+from .window_features import log_window, pooled
 
 DECISION_TIMES = (0.25, 0.5, 1.0, 2.0, None)
 """Seconds from the start at which accuracy is reported (None: the whole recording)."""
@@ -70,8 +71,8 @@ def span_features(power: np.ndarray, starts: np.ndarray, ends: np.ndarray,
                   floor_db: float, stats: Sequence[str] = STATS, split: int = 0
                   ) -> np.ndarray:
     """(windows, len(stats) x bands): the gain-free summary of ``power[start:end]`` for
-    each window (:func:`~fingertip.models.vibration.features.pooled` of
-    :func:`~fingertip.models.vibration.features.log_window`, ``split`` as there)."""
+    each window (:func:`~fingertip.models.vibration.window_features.pooled` of
+    :func:`~fingertip.models.vibration.window_features.log_window`, ``split`` as there)."""
     nb = power.shape[1]
     out = np.empty((len(starts), len(stats) * nb), dtype=power.dtype)
     for i, (s, e) in enumerate(zip(starts, ends, strict=True)):

@@ -18,10 +18,10 @@ so that a model trained on one sensor can be trained (or judged) on recordings o
    and a model knows the band edges it was trained with (:class:`FeatureConfig`, stored in
    the model). Band values are power spectral densities (input units^2 / Hz).
 4. **Gain**: each classifier window is divided by its own mean band power before the log
-   (:func:`log_window`), so the absolute gain of a sensor, preamp or sound card does not
-   matter. A floor (``floor_db``, -80 dB below the window's mean) keeps silence and
-   extreme values finite: an all-zero window gives ``floor_db`` everywhere, and features
-   are bounded by ``floor_db`` and ``10 log10(frames x bands)``.
+   (:func:`~.window_features.log_window`), so the absolute gain of a sensor, preamp or
+   sound card does not matter. A floor (``floor_db``, -80 dB below the window's mean)
+   keeps silence and extreme values finite: an all-zero window gives ``floor_db``
+   everywhere, and features are bounded by ``floor_db`` and ``10 log10(frames x bands)``.
 
 Why 16 kHz: a model is only as portable as its bands. Resampled to 16 kHz, every recording
 at 16 kHz or more (most sound cards, contact microphones and public vibration sets) feeds
@@ -33,10 +33,10 @@ shrink to the recording's own Nyquist (retrain, or cap a model with ``max_hz``).
 resampling included; on the simulator, bands up to 14.4 kHz (32 kHz) add about one point of
 material accuracy, because the simulated wax paper and copper tape differ above 8 kHz.
 
-The STFT gathers every frame at once (strided view + one fancy index, no Python loop per
-frame), windows it in place and calls ``scipy.fft.rfft`` on the whole block in float32
-(``dtype=np.float64`` gives the reference); buffers are reused between calls of the same
-size. Imports numpy and scipy only.
+This module holds the configuration, the recordings (reading, checks, clipping), the rate
+and the bands; :mod:`.spectrogram` computes the band power (the STFT) and
+:mod:`.window_features` the classifier windows' features from it. Imports numpy and scipy
+only.
 """
 from __future__ import annotations
 
@@ -51,13 +51,10 @@ from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
-import scipy.fft
 from scipy.signal import resample_poly
-from scipy.signal.windows import hann
 
 from ...audio.sanity import clipped_fraction, clipped_mask  # noqa: F401  (public names here)
 from ...errors import BadFileError
-from .mains import remove_mains
 
 log = logging.getLogger(__name__)
 
@@ -394,7 +391,7 @@ def to_working_rate(x: np.ndarray, rate: float, canonical: int = CANONICAL_RATE
     return y, rate * up / down
 
 
-# --- STFT and bands -----------------------------------------------------------------------
+# --- bands ------------------------------------------------------------------------------
 
 def band_matrix(freqs: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """(bins, bands) triangular weights, each band at least one bin wide on each side of
@@ -414,204 +411,6 @@ def band_matrix(freqs: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return w / s
 
 
-class Stft:
-    """Band power spectrogram at one working rate: frames every ``hop_s``, ``win_s`` long.
-
-    Frame ``k`` starts at sample ``round(k * hop_s * rate)`` (exact times at every rate).
-    """
-
-    def __init__(self, rate: float, cfg: FeatureConfig, dtype: type = np.float32) -> None:
-        if cfg.f_hi is None:
-            raise FeatureError("FeatureConfig.f_hi must be decided before an Stft is built")
-        self.rate = float(rate)
-        self.cfg = cfg
-        self.dtype = np.dtype(dtype)
-        self.win = max(8, int(round(cfg.win_s * rate)))
-        self.n_fft = scipy.fft.next_fast_len(self.win, real=True)
-        self.hop = cfg.hop_s * rate
-        w = hann(self.win, sym=False)
-        self.window = w.astype(self.dtype)
-        self.freqs = np.fft.rfftfreq(self.n_fft, 1 / rate)
-        # Power spectral density (units^2/Hz, one-sided) per bin, then weighted per band.
-        psd_scale = 2.0 / (rate * float(np.sum(w * w)))
-        self.weights = (cfg.band_weights(self.freqs) * psd_scale).astype(
-            self.dtype)
-        self._starts = np.zeros(0, dtype=np.intp)
-        self._frames = np.zeros((0, self.n_fft), dtype=self.dtype)
-        self._power = np.zeros((0, len(self.freqs)), dtype=self.dtype)
-        self._tmp = np.zeros((0, len(self.freqs)), dtype=self.dtype)
-        self._dc_bins = bool(np.any(self.weights[:2] != 0))
-
-    def n_frames(self, n_samples: int) -> int:
-        if n_samples < self.win:
-            return 0
-        k = int((n_samples - self.win) / self.hop) + 1
-        while k > 0 and int(round((k - 1) * self.hop)) + self.win > n_samples:
-            k -= 1
-        return k
-
-    def frame_starts(self, k: int) -> np.ndarray:
-        if len(self._starts) < k:
-            self._starts = np.rint(np.arange(max(k, 2 * len(self._starts))) * self.hop
-                                   ).astype(np.intp)
-        return self._starts[:k]
-
-    def _buffers(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        if len(self._frames) < k:  # grow only: repeated calls reuse the same memory
-            self._frames = np.zeros((k, self.n_fft), dtype=self.dtype)  # zero-padded tail
-            self._power = np.empty((k, len(self.freqs)), dtype=self.dtype)
-            self._tmp = np.empty((k, len(self.freqs)), dtype=self.dtype)
-        return self._frames[:k], self._power[:k]
-
-    def band_power(self, x: np.ndarray) -> np.ndarray:
-        """(frames, bands) band PSD of ``x`` (at this rate).
-
-        The input's mean is removed (in float64 when the input is float64, before any cast:
-        an ADC's offset must not eat float32's precision) and it is scaled by its own peak
-        (so float32 neither overflows nor underflows): the result is relative to that peak,
-        which the per-window normalisation cancels. Each frame's own mean only leaks into
-        FFT bins 0 and 1 with a periodic Hann window, which no band reaches unless f_lo is
-        set below about two bins (then frames are centred too).
-        """
-        x = np.asarray(x)
-        k = self.n_frames(len(x))
-        nb = self.weights.shape[1]
-        if k == 0:
-            return np.zeros((0, nb), dtype=self.dtype)
-        work = x - x.mean(dtype=np.float64).astype(x.dtype)
-        peak = float(np.max(np.abs(work)))
-        if peak > 0:
-            work *= work.dtype.type(1.0 / peak) if np.isfinite(1.0 / peak) else 1.0
-        xs = work.astype(self.dtype, copy=False)
-        padded, power = self._buffers(k)
-        frames = padded[:, :self.win]
-        view = np.lib.stride_tricks.sliding_window_view(xs, self.win)
-        frames[...] = view[self.frame_starts(k)]  # one gather (np.take would copy the view)
-        if self._dc_bins:
-            frames -= frames.mean(axis=1, keepdims=True)
-        frames *= self.window
-        spec = scipy.fft.rfft(padded, axis=1, workers=1)
-        np.multiply(spec.real, spec.real, out=power)
-        tmp = self._tmp[:k]
-        np.multiply(spec.imag, spec.imag, out=tmp)
-        power += tmp
-        return power @ self.weights
-
-    def frame_times(self, k: int) -> np.ndarray:
-        """Start time (s) of each of ``k`` frames."""
-        return self.frame_starts(k) / self.rate
-
-
-class Spectrogrammer:
-    """Recording -> band power spectrogram, with one cached :class:`Stft` per working rate."""
-
-    def __init__(self, cfg: FeatureConfig, dtype: type = np.float32) -> None:
-        self.cfg = cfg
-        self.dtype = dtype
-        self._stft: dict[float, Stft] = {}
-
-    def stft(self, rate: float) -> Stft:
-        st = self._stft.get(rate)
-        if st is None:
-            st = self._stft[rate] = Stft(rate, self.cfg, self.dtype)
-        return st
-
-    def __call__(self, x: np.ndarray, rate: float, what: str = "the recording"
-                 ) -> np.ndarray:
-        """(frames, bands) band power of samples ``x`` at ``rate``."""
-        self.cfg.check_supports(rate, what)
-        x = np.asarray(x)
-        if x.ndim != 1:
-            raise FeatureError(f"{what}: samples must be 1-D, not {x.shape}")
-        check_finite(x, what, rate)
-        if self.cfg.mains_notch:  # at the recording's own rate: finest lines, fewest samples
-            x = remove_mains(x, rate)
-        y, r = to_working_rate(x, rate, self.cfg.canonical_rate)
-        return self.stft(r).band_power(y)
-
-
-def band_power(x: np.ndarray, rate: float, cfg: FeatureConfig | None = None,
-               dtype: type = np.float32) -> np.ndarray:
-    """(frames, bands) band PSD of ``x`` at ``rate`` (one-off; classifiers keep a
-    :class:`Spectrogrammer`)."""
-    cfg = (cfg or FeatureConfig()).resolved(rate)
-    return Spectrogrammer(cfg, dtype)(x, rate)
-
-
-# --- per-window features ------------------------------------------------------------------
-
-def log_window(power: np.ndarray, floor_db: float = FLOOR_DB, split: int = 0
-               ) -> np.ndarray:
-    """dB relative to each window's mean band power, floored at ``floor_db``.
-
-    ``power``: (..., frames, bands), one window per leading index. Gain-free: scaling the
-    input by any factor gives the same values. Silence (all zero) gives ``floor_db``.
-    ``split``: the columns from ``split`` on (the linear bins of
-    :attr:`FeatureConfig.linear_bins`) are relative to their own mean, so that each view
-    of the spectrum is the same as on its own.
-    """
-    p = np.asarray(power)
-    if 0 < split < p.shape[-1]:
-        return np.concatenate([log_window(p[..., :split], floor_db),
-                               log_window(p[..., split:], floor_db)], axis=-1)
-    m = p.mean(axis=(-2, -1), keepdims=True)
-    tiny = np.finfo(p.dtype).tiny if p.dtype.kind == "f" else 1e-300
-    silent = m <= tiny
-    ratio = p / np.where(silent, 1, m)
-    ratio += p.dtype.type(10.0 ** (floor_db / 10)) if p.dtype.kind == "f" else \
-        10.0 ** (floor_db / 10)
-    out = np.log10(ratio)
-    out *= 10
-    np.maximum(out, floor_db, out=out)  # float32 rounding must not step below the floor
-    if silent.any():
-        out[np.broadcast_to(silent, out.shape)] = floor_db
-    return out
-
-
 STATS = ("mean", "std", "flux")
-
-
-def pooled(logwin: np.ndarray, stats: Sequence[str] = STATS) -> np.ndarray:
-    """Summary of windows of log band power, (..., frames, bands) -> (..., len(stats) x
-    bands): the mean over time (spectral shape), the standard deviation (how much each band
-    fluctuates: clicks, impacts, stick-slip) and the mean absolute change between
-    consecutive frames (texture and modulation), in the order of ``stats``."""
-    parts = []
-    for s in stats:
-        if s == "mean":
-            parts.append(logwin.mean(axis=-2))
-        elif s == "std":
-            parts.append(logwin.std(axis=-2))
-        elif s == "flux":
-            parts.append(np.abs(np.diff(logwin, axis=-2)).mean(axis=-2)
-                         if logwin.shape[-2] > 1 else np.zeros(logwin.shape[:-2]
-                                                                + logwin.shape[-1:],
-                                                                logwin.dtype))
-        else:
-            raise ValueError(f"unknown statistic {s!r} (one of {STATS})")
-    return np.concatenate(parts, axis=-1)
-
-
-def window_starts(n_frames: int, window_frames: int, step_s: float, hop_s: float = HOP_S
-                  ) -> np.ndarray:
-    """First frame of each window of ``window_frames`` frames every ``step_s`` seconds."""
-    if n_frames < window_frames:
-        return np.zeros(0, dtype=np.intp)
-    step = step_s / hop_s
-    n = int((n_frames - window_frames) / step + 1e-9) + 1
-    return np.rint(np.arange(n) * step).astype(np.intp)
-
-
-def gather_windows(power: np.ndarray, starts: np.ndarray, window_frames: int) -> np.ndarray:
-    """(windows, window_frames, bands) copies of the frames of each window."""
-    idx = starts[:, None] + np.arange(window_frames)
-    return power[idx]
-
-
-def level_db(x: np.ndarray) -> float:
-    """RMS level in dB of the samples' units (dBFS for WAV/FLAC); -inf for silence."""
-    x = np.asarray(x, dtype=np.float64)
-    if not len(x):
-        return -math.inf
-    ms = float(np.mean(np.square(x - x.mean())))
-    return 10 * math.log10(ms) if ms > 0 else -math.inf
+"""The default summary of a window (what models without a ``stats`` entry were made with)."""
+KNOWN_STATS = (*STATS, "p90")

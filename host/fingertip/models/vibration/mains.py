@@ -13,7 +13,7 @@ must stay. Every line of an accepted family is then removed by a
 narrow zero-phase IIR notch at the line's measured frequency.
 
 Pure numpy/scipy: the trainer and the runtime call the same function through
-:class:`~fingertip.models.vibration.features.Spectrogrammer`.
+:class:`~fingertip.models.vibration.spectrogram.Spectrogrammer`.
 """
 from __future__ import annotations
 

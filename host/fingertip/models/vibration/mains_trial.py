@@ -27,20 +27,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from .candidates import (
-    Answers,
-    Candidate,
-    CandidateWindows,
-    TIE,
-    Setup,
-    accuracy_by_time,
-    candidate_windows,
-    candidates,
-    cross_validate_against,
-    mean_accuracy,
-)
-from .classify import Dataset
+from .bank import Bank, build_bank
+from .candidates import TIE, Candidate, candidates
+from .classify import Dataset, FeaturePipeline
+from .cross_validation import FitMemo, cross_validate_against
 from .mains import find_mains_lines
+from .scores import Answers, accuracy_by_time, mean_accuracy
+from .setup import Setup
 
 log = logging.getLogger(__name__)
 
@@ -52,17 +45,17 @@ def recordings_with_lines(ds: Dataset) -> list[int]:
 
 
 def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarray,
-                    folds: list[np.ndarray], clean: dict[int, Answers],
-                    cw_clean: CandidateWindows, seed: int, hidden: tuple[int, ...],
-                    epochs: int
-                    ) -> tuple[dict, tuple[Candidate, Setup, CandidateWindows,
-                                           dict[int, Answers]] | None]:
-    """Cross-validate ``cand`` again with the notch (``clean`` and ``cw_clean``: its
-    out-of-fold answers and its windows without, on the same ``folds``).
+                    folds: list[np.ndarray], clean: dict[int, Answers], bank: Bank,
+                    seed: int, hidden: tuple[int, ...], epochs: int, *, jobs: int = 1,
+                    memo: FitMemo | None = None, bars=None
+                    ) -> tuple[dict, tuple[Candidate, Setup, Bank, dict[int, Answers]] | None]:
+    """Cross-validate ``cand`` again with the notch (``clean`` and ``bank``: its
+    out-of-fold answers and the shared features without, on the same ``folds``).
 
     Returns the report's entry and, when the notch is adopted, the notched candidate, the
-    setup, its windows and its out-of-fold answers (None otherwise). The folds stop early
-    once even right answers on every recording left could not reach the accuracy without."""
+    setup, the features and its out-of-fold answers (None otherwise). The folds stop as
+    soon as even right answers on every recording left could not reach the accuracy
+    without."""
     t0 = time.perf_counter()
     base = mean_accuracy(accuracy_by_time(clean, labels)) if clean else math.nan
     out: dict = {"adopted": False, "rule": "tried when some training recording carries "
@@ -72,24 +65,28 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
     with_lines = recordings_with_lines(ds)
     out["recordings_with_lines"] = len(with_lines)
     notched_setup = replace(setup, cfg=replace(setup.cfg, mains_notch=True))
-    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
     if not with_lines:
         # the notch leaves every training recording as it is: the same windows, the same
-        # answers; what changes is only what the model does with hum at run time
+        # answers, the same fits; what changes is only what the model does with hum at
+        # run time, so the candidate goes on with its features' notch turned on
         out.update(adopted=True, why="no training recording carries steady mains lines: "
                    "the notch changes none of them, kept without a trial (it acts only on "
                    "hum that appears later)")
         out["seconds"] = round(time.perf_counter() - t0, 3)
         log.info("%s", out["why"])
-        notched.last, notched.last_fit_s = cand.last, cand.last_fit_s  # the same model
-        return out, (notched, notched_setup, cw_clean, clean)
+        notched = replace(cand, pipe=FeaturePipeline(replace(cand.pipe.cfg, mains_notch=True),
+                                                     cand.pipe.spec))
+        return out, (notched, notched_setup, bank, clean)
     if not folds or not math.isfinite(base):
         out["why"] = "too few recordings to cross-validate it"
         out["seconds"] = round(time.perf_counter() - t0, 3)
         return out, None
-    cw = candidate_windows(notched, ds)
-    trial = cross_validate_against(notched, cw, labels, folds, ds.classes, seed, clean,
-                                   base - TIE)
+    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
+    done = bars("mains notch: features", len(ds.items)) if bars else None
+    nb = build_bank(notched_setup, ds, [notched], "notched", done)
+    done = bars("mains notch: folds", len(folds)) if bars else None
+    trial = cross_validate_against(notched, nb.view(notched), labels, folds, ds.classes,
+                                   seed, clean, base - TIE, jobs=jobs, memo=memo, done=done)
     out["seconds"] = round(time.perf_counter() - t0, 3)
     if trial.table is None:
         bound = trial.bound
@@ -102,7 +99,6 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
         log.info("%s", out["why"])
         return out, None
     acc = trial.accuracy
-    ans = trial.answers
     adopted = bool(acc >= base - TIE)
     out.update({"mean_accuracy_without": base, "mean_accuracy_with": acc,
                 "folds_run": len(folds), "adopted": adopted})
@@ -110,4 +106,4 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
                   f"{100 * base:.2f} % without ({len(with_lines)} recordings carry lines): "
                   + ("adopted" if adopted else "not adopted"))
     log.info("%s", out["why"])
-    return out, (notched, notched_setup, cw, ans) if adopted else None
+    return out, (notched, notched_setup, nb, trial.answers) if adopted else None

@@ -8,7 +8,7 @@ spectrogram into 86-frame windows, encodes them with a ResNet and an MLP head, p
 - ``cnn``: the small ResNet of :mod:`.cnn` on the window's gain-free log band spectrogram
   (86 x 32), trained in numpy with early stopping on held-out recordings;
 - ``mlp``: an MLP on the window's pooled features (mean, spread and frame-to-frame change
-  of each band, 96 numbers; :func:`~fingertip.models.vibration.features.pooled`);
+  of each band, 96 numbers; :func:`~fingertip.models.vibration.window_features.pooled`);
 
 both exported to ONNX and evaluated on the same held-out recordings (split by recording,
 stratified): accuracy per window (one 10 Hz prediction) and per shake (majority vote),
@@ -53,7 +53,8 @@ from .classify import (
     validation_split,
 )
 from ..nets.cnn import CnnSpec, SmallResNet, blas_threads, train_cnn
-from .features import FeatureConfig, as_recording, pooled
+from .features import FeatureConfig, as_recording
+from .window_features import pooled
 
 log = logging.getLogger(__name__)
 

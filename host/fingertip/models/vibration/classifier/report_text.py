@@ -46,7 +46,8 @@ def split_line(split: dict) -> str:
 
 def material_report_lines(rep: dict) -> list[str]:
     """A material training report in words: the windows and why, each candidate's
-    accuracy per decision time and cost, the choice, augmentation, decision threshold and
+    accuracy per decision time and cost (parameters, latency per answer, seconds of its
+    cross-validation), the choice, augmentation, decision threshold and
     calibration."""
     out: list[str] = []
     st = rep["setup"]
@@ -57,14 +58,15 @@ def material_report_lines(rep: dict) -> list[str]:
     times = list(next(iter(rep["candidates"].values()))["accuracy_by_time"]) or ["whole"]
     out.append("candidates (accuracy per recording at each decision time; cost):")
     out.append("  " + f"{'model':<9}" + "".join(f"{t:>8}" for t in times)
-               + "   params  ms/answer")
+               + "   params  ms/answer  train s")
     for name, c in rep["candidates"].items():
         acc = c["accuracy_by_time"]
         cells = "".join(f"{100 * acc[t]['accuracy']:7.1f}%" if t in acc and
                         acc[t]["recordings"] else f"{'-':>8}" for t in times)
         cost = c.get("cost", {})
         out.append(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
-                   f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f}")
+                   f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f} "
+                   f"{c.get('cross_validation_s', math.nan):8.1f}")
     for name, why in rep.get("candidates_skipped", {}).items():
         out.append(f"  {name:<9}skipped: {why}")
     out.append(f"chosen: {rep['choice']}")

@@ -6,17 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..features import (
-    STATS,
-    FeatureConfig,
-    Recording,
-    Spectrogrammer,
-    clipped_mask,
-    gather_windows,
-    log_window,
-    pooled,
-    window_starts,
-)
+from ..features import STATS, FeatureConfig, Recording, clipped_mask
+from ..spectrogram import Spectrogrammer
+from ..window_features import gather_windows, log_window, pooled, window_starts
 
 INPUTS = ("pooled", "spectrogram", "growing")
 

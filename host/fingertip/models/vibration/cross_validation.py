@@ -1,0 +1,323 @@
+"""Cross-validation by recording of the material candidates: every fit paid once.
+
+:func:`cross_validate` gives every recording's out-of-fold running probabilities. Its folds
+run in parallel on the machine's cores (:mod:`.parallel`); a candidate whose first fit fixes
+a choice (the logistic regressions' L2 penalty) runs its first fold alone, so that every
+fold sees the same choice whatever the number of cores. Fits are remembered by what they
+were fitted on (:class:`FitMemo`: the candidate, the features, the training recordings, the
+seed): the ensemble's members are the baseline's, the linear candidate's and the MLP's
+models of the same folds, reused, not refitted. :func:`cross_validate_against` stops a
+trial as soon as it cannot reach the accuracy it must (:func:`~.scores.best_case`).
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .bank import CandidateWindows, _Columns
+from .candidates import CNN_EPOCHS, Candidate, Fitted, _local, as_fitted
+from .classify import Dataset, DatasetError, Windows, stratified_folds
+from .parallel import run_rounds, shared
+from .reliability import Novelty, apply_temperature
+from .scores import (
+    UNKNOWN_KEEP,
+    Answers,
+    accuracy_by_time,
+    best_case,
+    calibrated,
+    fold_temperatures,
+    mean_accuracy,
+)
+
+log = logging.getLogger(__name__)
+
+
+class FitMemo:
+    """Fitted models by (candidate, features token, training recordings, seed), with the
+    seconds each fit took."""
+
+    def __init__(self) -> None:
+        self._fits: dict[tuple, tuple[object, float]] = {}
+
+    @staticmethod
+    def key(name: str, token: str, idx: np.ndarray, seed: int) -> tuple:
+        return name, token, np.asarray(idx, np.intp).tobytes(), int(seed)
+
+    def get(self, key: tuple) -> tuple[object, float] | None:
+        return self._fits.get(key) if key[1] else None  # no token: never shared
+
+    def put(self, key: tuple, model: object, seconds: float) -> None:
+        if key[1]:
+            self._fits[key] = (model, seconds)
+
+    def __len__(self) -> int:
+        return len(self._fits)
+
+
+def training_rows(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(inputs, labels, recording) of the training windows of recordings ``idx``."""
+    ws = [(i, cw.train[i]) for i in idx]
+    ws = [(i, w) for i, w in ws if len(w)]
+    if not ws:
+        raise DatasetError("no training windows (recordings too short?)")
+    x = np.concatenate([w.inputs for _, w in ws])
+    y = np.concatenate([np.full(len(w), labels[i]) for i, w in ws])
+    g = np.concatenate([np.full(len(w), i) for i, w in ws])
+    if len(np.unique(y)) < k:
+        raise DatasetError("some class has no training window (recordings too short?)")
+    return x, y, g
+
+
+def fit_on(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
+           classes: list[str], seed: int) -> Fitted:
+    x, y, g = training_rows(cw, labels, idx, len(classes))
+    return cand.train(x, y, g, classes, seed)
+
+
+def novelty_on(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
+               ) -> Novelty:
+    """The novelty model of the training windows of ``idx`` (each recording weighs the
+    same)."""
+    x, y, g = training_rows(cw, labels, idx, k)
+    _, inv, counts = np.unique(g, return_inverse=True, return_counts=True)
+    return Novelty.fit(x, y, k, 1.0 / counts[inv])
+
+
+def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
+               novelty: Novelty | None = None) -> Answers:
+    from .anytime import running
+
+    p = fitted.forward(w.inputs)
+    return Answers(p, running(p, w.growing), w.t_end, fold,
+                   None if novelty is None else novelty.distance(w.inputs))
+
+
+def _member_windows(cand: Candidate, cw: CandidateWindows, member: Candidate
+                    ) -> CandidateWindows:
+    cols = _local(cand, member)
+    return CandidateWindows(_Columns(cw.train, cols), _Columns(cw.test, cols), cw.seconds,
+                            cw.token)
+
+
+def _fit_job(name: str, idx: np.ndarray, seed: int) -> tuple[object, float]:
+    """In a worker: fit the shared candidate ``name`` on recordings ``idx``."""
+    cand, cw, labels, classes = shared("fit")[name]
+    t0 = time.perf_counter()
+    m = fit_on(cand, cw, labels, idx, classes, seed)
+    return m.model, time.perf_counter() - t0
+
+
+def _fold_job(f: int, tr: np.ndarray, te: np.ndarray, model: object | None
+              ) -> tuple[int, object, float, dict[int, Answers]]:
+    """In a worker: one fold (fitted here unless ``model`` is given), its answers."""
+    cand, cw, labels, classes, seed = shared("fold")
+    t0 = time.perf_counter()
+    m = fit_on(cand, cw, labels, tr, classes, seed) if model is None else as_fitted(model)
+    secs = time.perf_counter() - t0
+    nov = novelty_on(cw, labels, tr, len(classes))
+    ans = {int(i): answers_of(m, cw.test[i], f, nov) for i in te if len(cw.test[i])}
+    return f, m.model, secs, ans
+
+
+def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                trains: list[np.ndarray], classes: list[str], seed: int, memo: FitMemo,
+                jobs: int = 1) -> list[list[tuple[object, float]]]:
+    """Per training set of ``trains``: the (model, seconds) of each member of the
+    composite ``cand``, from ``memo`` when fitted already, else fitted (in parallel) and
+    remembered."""
+    names = {}
+    todo: list[tuple[int, int, tuple]] = []
+    for t, tr in enumerate(trains):
+        for j, (m, off) in enumerate(cand.members):
+            key = memo.key(m.name, cw.token, tr, seed + off)
+            names[m.name] = (m, _member_windows(cand, cw, m), labels, classes)
+            if memo.get(key) is None and key not in [k for *_, k in todo]:
+                todo.append((t, j, key))
+    # a member whose first fit fixes a choice (the L2 penalty) makes it here, alone
+    first = {}
+    for t, j, key in todo:
+        m, off = cand.members[j]
+        if m.prepare_first and m.name not in first:
+            first[m.name] = key
+            t0 = time.perf_counter()
+            fitted = fit_on(m, names[m.name][1], labels, trains[t], classes, seed + off)
+            memo.put(key, fitted.model, time.perf_counter() - t0)
+    todo = [(t, j, key) for t, j, key in todo if memo.get(key) is None]
+    args = [(cand.members[j][0].name, trains[t], seed + cand.members[j][1])
+            for t, j, _ in todo]
+    for (_, _, key), (model, secs) in zip(todo, run_rounds(_fit_job, args, jobs,
+                                                           {"fit": names}), strict=True):
+        memo.put(key, model, secs)
+    return [[memo.get(memo.key(m.name, cw.token, tr, seed + off))
+             for m, off in cand.members] for tr in trains]
+
+
+def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                   folds: list[np.ndarray], classes: list[str], seed: int,
+                   stop: Callable[[dict[int, Answers]], bool] | None = None, *,
+                   jobs: int = 1, memo: FitMemo | None = None,
+                   done: Callable[[], None] | None = None) -> dict[int, Answers]:
+    """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
+    is trained on the recordings of the other folds). ``stop``: asked between rounds of
+    folds (``jobs`` folds run at a time) with the answers so far; True ends the
+    cross-validation there (the answers returned are then those of the folds run).
+    ``memo``: fits made already (and where this one's go); ``done``: called per fold."""
+    memo = FitMemo() if memo is None else memo
+    pool = np.concatenate(folds)
+    trains = [np.setdiff1d(pool, te) for te in folds]
+    models: list[object | None] = [None] * len(folds)
+    secs = [0.0] * len(folds)
+    if cand.members:
+        parts = fit_members(cand, cw, labels, trains, classes, seed, memo, jobs)
+        for f, p in enumerate(parts):
+            models[f] = cand.combine([m for m, _ in p], classes)
+            secs[f] = sum(s for _, s in p)
+    else:
+        for f, tr in enumerate(trains):
+            hit = memo.get(memo.key(cand.name, cw.token, tr, seed))
+            if hit is not None:
+                models[f], secs[f] = hit
+    share = {"fold": (cand, cw, labels, classes, seed)}
+    results: list[tuple] = []
+    start = 0
+    if cand.prepare_first and models[0] is None:
+        results.append(run_rounds(_fold_job, [(0, trains[0], folds[0], None)], 1, share)[0])
+        start = 1
+        if done is not None:
+            done()
+
+    def answers(rs: list[tuple]) -> dict[int, Answers]:
+        out: dict[int, Answers] = {}
+        for _, _, _, a in rs:
+            out.update(a)
+        return out
+
+    lost = None if stop is None else (lambda rs: stop(answers(results + rs)))
+    if not (lost is not None and start and lost([])):
+        results += run_rounds(_fold_job, [(f, trains[f], folds[f], models[f])
+                                          for f in range(start, len(folds))], jobs, share,
+                              stop=lost, done=done)
+    for f, model, s, _ in results:
+        if models[f] is None:
+            memo.put(memo.key(cand.name, cw.token, trains[f], seed), model, s)
+            secs[f] = s
+    last_f, last_model = results[-1][0], results[-1][1]
+    cand.last, cand.last_fit_s = as_fitted(last_model), secs[last_f]
+    cand.fit_s = [secs[r[0]] for r in results]
+    if len(results) < len(folds):
+        log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
+                 len(results), len(folds))
+    return answers(results)
+
+
+def fit_final(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
+              classes: list[str], seed: int, memo: FitMemo | None = None, jobs: int = 1
+              ) -> Fitted:
+    """``cand`` fitted on recordings ``idx`` (a composite's members in parallel, and from
+    ``memo`` when fitted already)."""
+    memo = FitMemo() if memo is None else memo
+    if cand.members:
+        parts = fit_members(cand, cw, labels, [np.asarray(idx)], classes, seed, memo, jobs)
+        return as_fitted(cand.combine([m for m, _ in parts[0]], classes))
+    key = memo.key(cand.name, cw.token, idx, seed)
+    hit = memo.get(key)
+    if hit is not None:
+        return as_fitted(hit[0])
+    t0 = time.perf_counter()
+    fitted = fit_on(cand, cw, labels, idx, classes, seed)
+    memo.put(key, fitted.model, time.perf_counter() - t0)
+    return fitted
+
+
+@dataclass
+class Trial:
+    """A variant of a candidate cross-validated against the mean accuracy it must reach."""
+
+    answers: dict[int, Answers]
+    """Out-of-fold answers of the folds run."""
+    folds_run: int
+    table: dict[str, dict] | None
+    """Accuracy by decision time when every fold ran; None when it stopped early."""
+    bound: float | None
+    """When stopped early: the most its mean accuracy could still have reached."""
+
+    @property
+    def accuracy(self) -> float | None:
+        return None if self.table is None else mean_accuracy(self.table)
+
+
+def cross_validate_against(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                           folds: list[np.ndarray], classes: list[str], seed: int,
+                           clean: dict[int, Answers], need: float, *, jobs: int = 1,
+                           memo: FitMemo | None = None,
+                           done: Callable[[], None] | None = None) -> Trial:
+    """Cross-validate ``cand`` (windows ``cw``) on ``folds`` to be compared with ``need``,
+    a mean accuracy over the decision times. The folds stop as soon as even right answers
+    on every recording of ``clean`` (the plain model's answers) still to come could not
+    reach ``need``, checked from the first fold on: the remaining folds could not change
+    the decision."""
+    def lost(part: dict[int, Answers]) -> bool:
+        return mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) < need
+
+    ans = cross_validate(cand, cw, labels, folds, classes, seed, stop=lost, jobs=jobs,
+                         memo=memo, done=done)
+    run = len({a.fold for a in ans.values()})
+    if run < len(folds):
+        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
+        return Trial(ans, run, None, bound)
+    return Trial(ans, len(folds), accuracy_by_time(ans, labels), None)
+
+
+def cnn_work(cw: CandidateWindows, n_fits: int, epochs: int = CNN_EPOCHS) -> int:
+    """Projected work of the CNN candidate's training in window-epochs: its training
+    windows of every recording x ``epochs`` x ``n_fits`` (the folds and the final model).
+    An upper bound (a fold trains on fewer recordings; early stopping usually ends sooner)
+    that depends on the data only, never on the machine."""
+    return sum(len(w) for w in cw.train) * epochs * n_fits
+
+
+def unknown_auroc(cand: Candidate, cw: CandidateWindows, ds: Dataset, left_out: str,
+                  k: int = 5, seed: int = 0) -> dict:
+    """Leave class ``left_out`` out of training: a ``k``-fold cross-validation on the other
+    classes, whose fold models also answer every recording of ``left_out``. Returns the ROC
+    AUC of the novelty distance (:class:`~fingertip.models.vibration.reliability.Novelty`,
+    the last window) of the left-out recordings (answered by every fold model: k answers
+    each) against the known ones (out of fold), the same for the softmax's own score
+    (1 - top calibrated probability), and the share of each answered "unknown" at the
+    trainer's rule (above the distance 95 % of known recordings stay below)."""
+    from .reliability import auroc, unknown_score
+
+    c_out = ds.classes.index(left_out)
+    labels_all = ds.labels
+    known = np.flatnonzero(labels_all != c_out)
+    gone = np.flatnonzero(labels_all == c_out)
+    classes = [c for c in ds.classes if c != left_out]
+    labels = np.where(labels_all > c_out, labels_all - 1, labels_all)
+    folds = [known[f] for f in stratified_folds(labels[known], k, seed)]
+    ans: dict[int, Answers] = {}
+    foreign: list[Answers] = []
+    for f, te in enumerate(folds):
+        tr = np.setdiff1d(known, te)
+        m = fit_on(cand, cw, labels, tr, classes, seed)
+        nov = novelty_on(cw, labels, tr, len(classes))
+        for i in te:
+            if len(cw.test[i]):
+                ans[int(i)] = answers_of(m, cw.test[i], f, nov)
+        foreign += [answers_of(m, cw.test[i], f, nov) for i in gone if len(cw.test[i])]
+    temps = fold_temperatures(ans, labels, len(folds))
+    known_d = np.array([a.dist[-1] for a in ans.values()])
+    out_d = np.array([a.dist[-1] for a in foreign])
+    known_p = unknown_score(np.array([a.run[-1] for a in calibrated(ans, temps).values()]))
+    out_p = unknown_score(np.array([apply_temperature(a.run[-1], temps[a.fold])
+                                    for a in foreign]))
+    level = float(np.quantile(known_d, UNKNOWN_KEEP))
+    return {"left_out": left_out, "auroc": auroc(out_d, known_d),
+            "auroc_softmax": auroc(out_p, known_p),
+            "known_recordings": len(known_d), "left_out_answers": len(out_d),
+            "left_out_answered_unknown": float(np.mean(out_d > level)),
+            "known_answered_unknown": float(np.mean(known_d > level))}
