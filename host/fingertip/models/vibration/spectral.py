@@ -8,8 +8,9 @@ statistics, a few lines of scikit-learn, reached 91.2 % on 1,000 real slides of 
 the trainer's own candidates stopped at 90.9 % (issue 29), so the trainer tries it and
 keeps it when the cross-validation says it pays. The exported graph takes the same float32
 rows as the float64 model (scikit-learn's) and ends with the trainer's temperature:
-``softmax(log(p) / T)``, the scaling :func:`~fingertip.models.vibration.reliability.apply_temperature`
-applies to every other candidate.
+``softmax(log(p) / T)``, the scaling that
+:func:`~fingertip.models.vibration.reliability.apply_temperature` applies to every other
+candidate.
 """
 from __future__ import annotations
 
