@@ -32,6 +32,8 @@ class Case:
     after: float = 0.0
     wait_for: str = ""
     sigint_ignored: bool = False
+    wait_on: str = "stderr"
+    """Where ``wait_for`` appears: "stderr" or "stdout"."""
 
 
 # What a bad file of each kind must be called in the error line.
@@ -288,7 +290,7 @@ add(Case("record-SIGINT-ignored-by-parent", REC, 0, "recorded", proc=True, signa
     Case("publish-SIGINT-at-start", "publish --virtual 1 --duration 20", (0, 130), "",
          proc=True, signal="SIGINT", after=0.6),
     Case("stream-SIGTERM", "stream --port {port}", 0, "frames", proc=True, signal="SIGTERM",
-         after=4.0),
+         after=0.5, wait_for=" ", wait_on="stdout"),
     Case("train-SIGINT", "train material {vib} -o {tmp}/m --models baseline --augment 0", 130,
          "interrupted by SIGINT", proc=True, signal="SIGINT", after=2.5),
     Case("calibrate-fit-SIGHUP", "calibrate fit {cal} -o {tmp}/c -q", 130,

@@ -131,15 +131,17 @@ def run_proc(case: Case, argv: list[str], timeout: float) -> tuple[int | None, s
     root = Path(__file__).resolve().parents[2]
     env["PYTHONPATH"] = os.pathsep.join([str(root / "host"), env.get("PYTHONPATH", "")])
     pre = _child_ignore_sigint if case.sigint_ignored else default_signals
+    on_stdout = case.wait_on == "stdout"
     proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", *argv],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            env=env, preexec_fn=pre)
+                            stdout=subprocess.PIPE if on_stdout else subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, env=env, preexec_fn=pre)
+    stream = proc.stdout if on_stdout else proc.stderr
     try:
         if case.wait_for:
             deadline = time.monotonic() + timeout
             line = ""
             while case.wait_for not in line and time.monotonic() < deadline:
-                line = proc.stderr.readline()
+                line = stream.readline()
                 if not line and proc.poll() is not None:
                     break
         time.sleep(case.after)
