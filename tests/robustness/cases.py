@@ -267,13 +267,14 @@ add(Case("rdt-wrong-size", "calibrate record --port {port} --rdt {rdt_size} --du
 
 
 # --- signals ----------------------------------------------------------------------------------
-def _complete(name: str) -> Callable[[Any], str | None]:
+def _complete(name: str, required: bool = True) -> Callable[[Any], str | None]:
+    """The recording ``name`` of the case is complete (``required=False``: if it exists)."""
     def check(ws) -> str | None:
         from fingertip.record import Recording
 
         p = ws["tmp"] / name
         if not p.exists():
-            return f"{name} not written"
+            return f"{name} not written" if required else None
         rec = Recording(p)
         return None if rec.complete else f"{name} is not complete"
     return check
@@ -286,7 +287,9 @@ for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
 add(Case("record-SIGINT-ignored-by-parent", REC, 0, "recorded", proc=True, signal="SIGINT",
          after=0.5, wait_for="recording", sigint_ignored=True, check=_complete("s.mcap")),
     Case("record-SIGINT-at-start", REC, (0, 130), "", proc=True, signal="SIGINT",
-         after=0.4),
+         after=0.4, check=_complete("s.mcap", required=False)),
+    Case("record-SIGTERM-at-open", REC, (0, 130), "", proc=True, signal="SIGTERM",
+         after=1.0, check=_complete("s.mcap", required=False)),
     Case("publish-SIGINT-at-start", "publish --virtual 1 --duration 20", (0, 130), "",
          proc=True, signal="SIGINT", after=0.6),
     Case("stream-SIGTERM", "stream --port {port}", 0, "frames", proc=True, signal="SIGTERM",
