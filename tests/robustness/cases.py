@@ -288,12 +288,18 @@ for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
              wait_for="recording", check=_complete("s.mcap")))
 add(Case("record-SIGINT-ignored-by-parent", REC, 0, "recorded", proc=True, signal="SIGINT",
          after=0.5, wait_for="recording", sigint_ignored=True, check=_complete("s.mcap")),
+    # "at start": as soon as the command's own code runs (Python's start-up before it is
+    # Python's), while it imports its modules, opens the device, creates the file
     Case("record-SIGINT-at-start", REC, (0, 130), "", proc=True, signal="SIGINT",
-         after=0.4, check=_complete("s.mcap", required=False)),
+         wait_for="handlers", check=_complete("s.mcap", required=False)),
     Case("record-SIGTERM-at-open", REC, (0, 130), "", proc=True, signal="SIGTERM",
-         after=1.0, check=_complete("s.mcap", required=False)),
+         after=0.3, wait_for="handlers", check=_complete("s.mcap", required=False)),
+    Case("record-SIGHUP-at-open", REC, (0, 130), "", proc=True, signal="SIGHUP",
+         after=0.6, wait_for="handlers", check=_complete("s.mcap", required=False)),
     Case("publish-SIGINT-at-start", "publish --virtual 1 --duration 20", (0, 130), "",
-         proc=True, signal="SIGINT", after=0.6),
+         proc=True, signal="SIGINT", wait_for="handlers"),
+    Case("publish-SIGTERM-at-open", "publish --virtual 1 --duration 20", (0, 130), "",
+         proc=True, signal="SIGTERM", after=0.4, wait_for="handlers"),
     Case("stream-SIGTERM", "stream --port {port}", 0, "frames", proc=True, signal="SIGTERM",
          after=0.5, wait_for=" ", wait_on="stdout"),
     Case("train-SIGINT", "train material {vib} -o {tmp}/m --models baseline --augment 0", 130,
