@@ -32,6 +32,8 @@ class Case:
     after: float = 0.0
     wait_for: str = ""
     sigint_ignored: bool = False
+    wait_on: str = "stderr"
+    """Where ``wait_for`` appears: "stderr" or "stdout"."""
 
 
 # What a bad file of each kind must be called in the error line.
@@ -170,6 +172,8 @@ add(Case("record-output-exists", "record --port {port} -o {rec} --duration 0.5",
          "device"),
     Case("check-plot-fifo", "check --virtual --no-prompt --report {tmp}/r.json --plot {fifo}",
          2, "FIFO"),
+    Case("stream-plot-png-fifo", "stream --port {port} --count 2 --plot-png {fifo}", 2,
+         "FIFO"),
     Case("train-output-file", "train material {vib} -o {text}", 2, "not a folder"),
     Case("train-output-fifo", "train material {vib} -o {fifo}", 2, "FIFO"),
     Case("calibrate-fit-output-file", "calibrate fit {cal} -o {text} -q", 2, "not a folder"),
@@ -265,13 +269,14 @@ add(Case("rdt-wrong-size", "calibrate record --port {port} --rdt {rdt_size} --du
 
 
 # --- signals ----------------------------------------------------------------------------------
-def _complete(name: str) -> Callable[[Any], str | None]:
+def _complete(name: str, required: bool = True) -> Callable[[Any], str | None]:
+    """The recording ``name`` of the case is complete (``required=False``: if it exists)."""
     def check(ws) -> str | None:
         from fingertip.record import Recording
 
         p = ws["tmp"] / name
         if not p.exists():
-            return f"{name} not written"
+            return f"{name} not written" if required else None
         rec = Recording(p)
         return None if rec.complete else f"{name} is not complete"
     return check
@@ -283,12 +288,20 @@ for sig in ("SIGINT", "SIGTERM", "SIGHUP"):
              wait_for="recording", check=_complete("s.mcap")))
 add(Case("record-SIGINT-ignored-by-parent", REC, 0, "recorded", proc=True, signal="SIGINT",
          after=0.5, wait_for="recording", sigint_ignored=True, check=_complete("s.mcap")),
+    # "at start": as soon as the command's own code runs (Python's start-up before it is
+    # Python's), while it imports its modules, opens the device, creates the file
     Case("record-SIGINT-at-start", REC, (0, 130), "", proc=True, signal="SIGINT",
-         after=0.4),
+         wait_for="handlers", check=_complete("s.mcap", required=False)),
+    Case("record-SIGTERM-at-open", REC, (0, 130), "", proc=True, signal="SIGTERM",
+         after=0.3, wait_for="handlers", check=_complete("s.mcap", required=False)),
+    Case("record-SIGHUP-at-open", REC, (0, 130), "", proc=True, signal="SIGHUP",
+         after=0.6, wait_for="handlers", check=_complete("s.mcap", required=False)),
     Case("publish-SIGINT-at-start", "publish --virtual 1 --duration 20", (0, 130), "",
-         proc=True, signal="SIGINT", after=0.6),
+         proc=True, signal="SIGINT", wait_for="handlers"),
+    Case("publish-SIGTERM-at-open", "publish --virtual 1 --duration 20", (0, 130), "",
+         proc=True, signal="SIGTERM", after=0.4, wait_for="handlers"),
     Case("stream-SIGTERM", "stream --port {port}", 0, "frames", proc=True, signal="SIGTERM",
-         after=4.0),
+         after=0.5, wait_for=" ", wait_on="stdout"),
     Case("train-SIGINT", "train material {vib} -o {tmp}/m --models baseline --augment 0", 130,
          "interrupted by SIGINT", proc=True, signal="SIGINT", after=2.5),
     Case("calibrate-fit-SIGHUP", "calibrate fit {cal} -o {tmp}/c -q", 130,

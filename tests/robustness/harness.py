@@ -131,15 +131,19 @@ def run_proc(case: Case, argv: list[str], timeout: float) -> tuple[int | None, s
     root = Path(__file__).resolve().parents[2]
     env["PYTHONPATH"] = os.pathsep.join([str(root / "host"), env.get("PYTHONPATH", "")])
     pre = _child_ignore_sigint if case.sigint_ignored else default_signals
+    on_stdout = case.wait_on == "stdout"
     proc = subprocess.Popen([sys.executable, "-m", "fingertip.cli", *argv],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            env=env, preexec_fn=pre)
+                            stdout=subprocess.PIPE if on_stdout else subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, env=env, preexec_fn=pre)
+    stream = proc.stdout if on_stdout else proc.stderr
     try:
-        if case.wait_for:
+        if case.wait_for == HANDLERS:
+            _wait_handlers(proc.pid, timeout)
+        elif case.wait_for:
             deadline = time.monotonic() + timeout
             line = ""
             while case.wait_for not in line and time.monotonic() < deadline:
-                line = proc.stderr.readline()
+                line = stream.readline()
                 if not line and proc.poll() is not None:
                     break
         time.sleep(case.after)
@@ -151,6 +155,26 @@ def run_proc(case: Case, argv: list[str], timeout: float) -> tuple[int | None, s
         proc.kill()
         _, err = proc.communicate()
         return None, err, True
+
+
+HANDLERS = "handlers"
+"""``wait_for`` value: wait until the child catches SIGINT, SIGTERM and SIGHUP (its own
+code runs: before that, Python's start-up answers a signal, not ours)."""
+
+
+def _wait_handlers(pid: int, timeout: float) -> None:
+    want = (1 << (signal.SIGINT - 1)) | (1 << (signal.SIGTERM - 1)) | (1 << (signal.SIGHUP - 1))
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        try:
+            status = Path(f"/proc/{pid}/status").read_text()
+        except OSError:
+            return  # ended
+        caught = int(next(ln.split()[1] for ln in status.splitlines()
+                          if ln.startswith("SigCgt:")), 16)
+        if caught & want == want:
+            return
+        time.sleep(0.005)
 
 
 def error_lines(text: str, records: list) -> list[str]:

@@ -152,6 +152,11 @@ def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
     from ..stream import StreamError, StreamSettings, stream_fingertip, stream_hand
 
+    from ..outputs import check_output
+
+    if args.plot_png:  # replaced every second; never a folder, FIFO or device
+        check_output(args.plot_png, force=True, what="plot")
+
     try:
         spec = hand_spec_from_args(args)
     except ValueError as e:

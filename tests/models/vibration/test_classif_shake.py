@@ -166,7 +166,9 @@ def test_too_short_shakes_are_refused(tmp_path):
     for c in ("a", "b"):
         (tmp_path / c).mkdir()
         for k in range(3):
-            sf.write(tmp_path / c / f"{k}.wav", np.zeros(8000), 16000)
+            # noise, not silence: a silent recording is refused before its length
+            noise = np.random.default_rng(k).normal(0, 0.1, 8000)
+            sf.write(tmp_path / c / f"{k}.wav", noise, 16000)
     with pytest.raises(DatasetError, match="1.0 s or more"):
         train_shake(tmp_path, tmp_path / "out", models=("mlp",))
 
