@@ -180,6 +180,12 @@ def root_exports(package: Path) -> dict[str, list[str]]:
             base = _from_module(node, [package.name], package.name)
             for a in node.names if base is not None else ():
                 out[a.asname or a.name] = base + [a.name]
+        elif isinstance(node, ast.Assign) and any(
+                isinstance(t, ast.Name) and t.id == "_LAZY" for t in node.targets):
+            # Names the root imports on first use (``__getattr__``): {name: "sub.module"}.
+            lazy = ast.literal_eval(node.value)
+            for name, where in lazy.items():
+                out[name] = [package.name, *where.split("."), name]
     return out
 
 
@@ -356,9 +362,12 @@ def test_the_checker_finds_an_upward_import_wherever_it_hides(tmp_path, text):
     "import fingertip\n\ndef f():\n    return fingertip.Fingertip\n",
     "import fingertip as ft\nPORT = ft.Fingertip\n",
 ])
-def test_a_name_reached_through_the_root_counts_as_its_package(tmp_path, text):
-    """The root re-exports `Fingertip` from `device`: a transport reading it imports device."""
-    pkg = _tree(tmp_path, {"__init__.py": "from .device import Fingertip\n",
+@pytest.mark.parametrize("root", ["from .device import Fingertip\n",
+                                  "_LAZY = {'Fingertip': 'device'}\n"])
+def test_a_name_reached_through_the_root_counts_as_its_package(tmp_path, text, root):
+    """The root re-exports `Fingertip` from `device` (imported, or on first use through
+    `_LAZY`): a transport reading it imports device."""
+    pkg = _tree(tmp_path, {"__init__.py": root,
                            "device/__init__.py": "class Fingertip: ...\n",
                            "transport/__init__.py": "", "transport/serial.py": text})
     bad, _ = check_layers(pkg, {"transport": 1, "device": 2})
@@ -436,3 +445,11 @@ def test_a_package_in_two_rows_is_refused(tmp_path):
     doc.write_text("| 0 | `protocol` | x |\n| 1 | `protocol`, `device` | y |\n")
     with pytest.raises(ValueError, match="protocol is listed in two rows"):
         read_layers(doc)
+
+
+def test_the_real_root_names_the_packages_of_its_public_names():
+    """The real facade loads its names on first use: the checker must still see where each
+    comes from, or `from fingertip import Fingertip` in a low layer would pass unseen."""
+    exports = root_exports(PACKAGE)
+    assert exports["Fingertip"] == ["fingertip", "device", "Fingertip"]
+    assert exports["ProtocolVersionError"] == ["fingertip", "protocol", "ProtocolVersionError"]

@@ -9,13 +9,16 @@ __version__ = "0.1.0"
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
-_LAZY = {**dict.fromkeys(("BridgeStats", "CommandFailed", "CommandTimeout", "FingerFrame",
-                          "Fingertip", "FingertipError", "Frame", "Hand", "NotConnected"),
-                         "device"),
-         "ProtocolVersionError": "protocol"}
+_LAZY = {
+    "BridgeStats": "device", "CommandFailed": "device", "CommandTimeout": "device",
+    "FingerFrame": "device", "Fingertip": "device", "FingertipError": "device",
+    "Frame": "device", "Hand": "device", "NotConnected": "device",
+    "ProtocolVersionError": "protocol",
+}
 """The public names, imported on first use: ``import fingertip`` stays cheap, so the command
 line handles Ctrl-C before the heavier layers load (an interrupt while they import would be
-a traceback)."""
+a traceback). A plain literal: tests/test_import_layers.py reads it to know which package
+each name comes from."""
 
 __all__ = ["BridgeStats", "CommandFailed", "CommandTimeout", "FingerFrame", "Fingertip",
            "FingertipError", "Frame", "Hand", "NotConnected", "ProtocolVersionError", "__version__"]
