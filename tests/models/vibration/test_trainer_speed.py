@@ -168,7 +168,7 @@ def test_svm_and_boosted_trees_export_to_onnx_matching_float64(setup_ds, train, 
 def test_progress_goes_to_stderr_only(folder, tmp_path):
     """`--json` prints the report, and only it, on stdout; the bars are on stderr (one
     line when a phase starts and one when it ends, stderr not being a terminal)."""
-    out = subprocess.run([sys.executable, "-m", "fingertip", "train", "material", str(folder),
+    out = subprocess.run([sys.executable, "-m", "fingertip.cli", "train", "material", str(folder),
                           "--out", str(tmp_path / "m"), "--json", "--folds", "3",
                           "--models", "linear,svm", "--augment", "0"],
                          capture_output=True, text=True, timeout=600)
