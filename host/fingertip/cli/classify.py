@@ -72,7 +72,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
     trees, a CNN) chosen by cross-validation by recording,
     calibrated probabilities and an "unknown" answer; exported to ONNX."""
     from ..models.vibration.augment import AugmentConfig
-    from ..models.vibration.candidates import CANDIDATES
+    from ..models.vibration.candidates import DEFAULT_CANDIDATES
     from ..models.vibration.classifier.report_text import material_summary_lines
     from ..models.vibration.material import train_material
 
@@ -83,7 +83,7 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               hidden=args.hidden, test_fraction=args.test_fraction,
                               seed=args.seed, rate_hint=args.rate_hint, max_hz=args.max_hz,
                               epochs=args.epochs, folds=args.folds,
-                              models=args.models or CANDIDATES,
+                              models=args.models or DEFAULT_CANDIDATES,
                               augment=AugmentConfig(copies=args.augment),
                               cnn_budget=args.cnn_budget, jobs=args.jobs)
 
@@ -308,8 +308,8 @@ def add_parsers(sub) -> None:
                    help="hidden layer sizes of the MLP candidate (default 64)")
     m.add_argument("--models", type=_models, default=None, metavar="NAME[,NAME...]",
                    help="candidate models compared by cross-validation (default "
-                        "baseline,linear,mlp,ensemble,svm,boost,cnn; the CNN only within "
-                        "--cnn-budget)")
+                        "baseline,linear,mlp,ensemble,svm,cnn; the CNN only within "
+                        "--cnn-budget; boost, slow to cross-validate, only when named)")
     m.add_argument("--cnn-budget", type=number(float, 0, 1e12, lo_open=True),
                    default=None, metavar="N",
                    help="cross-validate the CNN candidate only when its projected work "

@@ -31,6 +31,11 @@ from .setup import Setup
 CANDIDATES = ("baseline", "linear", "mlp", "ensemble", "svm", "boost", "cnn")
 """Cheapest first (per answer, then to train): of candidates tied on accuracy, the first
 wins, so a costlier one must beat a cheaper one by more than :data:`TIE`."""
+DEFAULT_CANDIDATES = tuple(n for n in CANDIDATES if n != "boost")
+"""What the trainer compares unless told otherwise. Boosted trees are opt-in (``--models
+...,boost``): their cross-validation took 345-553 s on the bench's sets in the forked fold
+workers (2.5 s of CPU per fit alone), several times every other candidate together, and they
+won on none of those sets."""
 ENSEMBLE_MLPS = 2
 """MLPs in the ensemble candidate (seeds differ)."""
 ENSEMBLE_SEED_STEP = 1000

@@ -38,7 +38,7 @@ import numpy as np
 from .augment import AugmentConfig
 from .augment_trial import try_augmentation
 from .bank import Bank, build_bank
-from .candidates import CANDIDATES, CNN_EPOCHS, CNN_WORK_LIMIT, TIE, Candidate, candidates
+from .candidates import DEFAULT_CANDIDATES, CNN_EPOCHS, CNN_WORK_LIMIT, TIE, Candidate, candidates
 from .classify import (
     Dataset,
     ModelEvaluation,
@@ -124,7 +124,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    seed: int = 0, rate_hint: float | None = None, max_hz: float | None = None,
                    epochs: int = 300, folds: int = 1, features: FeatureConfig | None = None,
                    kind: str = "material", plot: bool = True,
-                   models: tuple[str, ...] = CANDIDATES,
+                   models: tuple[str, ...] = DEFAULT_CANDIDATES,
                    augment: AugmentConfig | None = None,
                    cnn_budget: float | None = None,
                    mains_notch: bool | None = None, jobs: int | None = None,
@@ -137,9 +137,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     cross-validation by recording chooses the model, calibrates it and is the evaluation;
     the exported model is then trained on every recording. ``folds`` 1: one split
     (``test_fraction`` held out); the choice and the calibration use a cross-validation of
-    the training recordings only. ``models``: the candidates (see
-    :data:`~.candidates.CANDIDATES`). ``augment``: augmented copies of each training
-    recording (:mod:`.augment`; None: the defaults, one copy; only the training windows of
+    the training recordings only. ``models``: the candidates (default
+    :data:`~.candidates.DEFAULT_CANDIDATES`; all: :data:`~.candidates.CANDIDATES`).
+    ``augment``: augmented copies of each training recording (:mod:`.augment`; None: the defaults, one copy; only the training windows of
     each fold are augmented, never the answers scored). ``cnn_budget``: the CNN candidate
     is cross-validated only when its projected work (:func:`~.cross_validation.cnn_work`,
     window-epochs) is at most this (inf: no limit; None: :data:`~.candidates.CNN_WORK_LIMIT`);
