@@ -139,8 +139,9 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     (``test_fraction`` held out); the choice and the calibration use a cross-validation of
     the training recordings only. ``models``: the candidates (default
     :data:`~.candidates.DEFAULT_CANDIDATES`; all: :data:`~.candidates.CANDIDATES`).
-    ``augment``: augmented copies of each training recording (:mod:`.augment`; None: the defaults, one copy; only the training windows of
-    each fold are augmented, never the answers scored). ``cnn_budget``: the CNN candidate
+    ``augment``: augmented copies of each training recording (:mod:`.augment`; None: the
+    defaults, one copy; only the training windows of each fold are augmented, never the
+    answers scored). ``cnn_budget``: the CNN candidate
     is cross-validated only when its projected work (:func:`~.cross_validation.cnn_work`,
     window-epochs) is at most this (inf: no limit; None: :data:`~.candidates.CNN_WORK_LIMIT`);
     a count from the data, so the same folder always gives the same candidates.
