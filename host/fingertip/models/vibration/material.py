@@ -30,26 +30,22 @@ import logging
 import math
 import os
 import time
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
 from .augment import AugmentConfig
 from .augment_trial import try_augmentation
-from .bank import Bank, build_bank
+from .bank import build_bank
 from .candidates import DEFAULT_CANDIDATES, CNN_EPOCHS, CNN_WORK_LIMIT, TIE, Candidate, candidates
 from .classify import (
     Dataset,
-    ModelEvaluation,
-    evaluate,
     load_folder,
     require_test_set,
     split_by_recording,
     stratified_folds,
 )
 from .cross_validation import (
-    FitMemo,
     answers_of,
     cnn_work,
     cross_validate,
@@ -59,11 +55,11 @@ from .cross_validation import (
 from .features import FeatureConfig
 from .mains_trial import try_mains_notch
 from .material_report import write_outputs
+from .material_run import Final, TrainingRun, TrainResult
 from .parallel import default_jobs
 from .progress import Bars
 from .reliability import fit_temperature
 from .scores import (
-    Answers,
     accuracy_by_time,
     at_times,
     calibrated,
@@ -77,45 +73,6 @@ from .setup import Setup, choose_setup
 log = logging.getLogger(__name__)
 
 HIDDEN = (64,)
-
-
-@dataclass
-class TrainResult:
-    out: Path
-    model_path: Path
-    evaluation: ModelEvaluation
-    report: dict
-    files: list[Path] = field(default_factory=list)
-    model: object = None
-    """The trained model (float64 reference of the exported ONNX graph, before the
-    temperature)."""
-
-
-@dataclass
-class _Run:
-    """What the steps of one training share."""
-
-    ds: Dataset
-    setup: Setup
-    labels: np.ndarray
-    folds: list[np.ndarray]
-    """The cross-validation's test sets (of the training recordings)."""
-    train_idx: np.ndarray
-    test_idx: np.ndarray
-    seed: int
-    jobs: int
-    bars: Bars
-    memo: FitMemo = field(default_factory=FitMemo)
-    bank: Bank | None = None
-    cands: list[Candidate] = field(default_factory=list)
-    results: dict[str, dict] = field(default_factory=dict)
-    skipped: dict[str, str] = field(default_factory=dict)
-    oof: dict[str, dict[int, Answers]] = field(default_factory=dict)
-    timing: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def classes(self) -> list[str]:
-        return self.ds.classes
 
 
 def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, *,
@@ -182,7 +139,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
 
 
 def _plan(ds: Dataset, setup: Setup, folds: int, test_fraction: float, seed: int,
-          jobs: int, bars: Bars) -> _Run:
+          jobs: int, bars: Bars) -> TrainingRun:
     """The folds that choose the model (and the held-out test set with ``folds`` 1)."""
     labels = ds.labels
     if folds > 1:
@@ -194,10 +151,10 @@ def _plan(ds: Dataset, setup: Setup, folds: int, test_fraction: float, seed: int
         inner = min(3, int(np.bincount(labels[train_idx]).min()))
         sel = [train_idx[f] for f in stratified_folds(labels[train_idx], inner, seed)] \
             if inner >= 2 else []
-    return _Run(ds, setup, labels, sel, train_idx, test_idx, seed, jobs, bars)
+    return TrainingRun(ds, setup, labels, sel, train_idx, test_idx, seed, jobs, bars)
 
 
-def _cross_validate_candidates(run: _Run, cands: list[Candidate], cnn_budget: float) -> None:
+def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_budget: float) -> None:
     """The shared features, then every candidate's cross-validation (the CNN only within
     its budget; no time cap on its fits: a cap would make its result depend on the
     machine's load, the work rule bounds it instead)."""
@@ -253,7 +210,7 @@ def choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
                   f"the best are tied and the cheapest of them wins)")
 
 
-def _mains_step(run: _Run, chosen: str, mains_notch: bool | None,
+def _mains_step(run: TrainingRun, chosen: str, mains_notch: bool | None,
                 hidden: tuple[int, ...], epochs: int) -> Candidate:
     """The mains notch: tried on the chosen candidate unless asked (:mod:`.mains_trial`).
     Returns the candidate to go on with (notched when adopted)."""
@@ -279,7 +236,7 @@ def _mains_step(run: _Run, chosen: str, mains_notch: bool | None,
     return cand
 
 
-def _augmentation_step(run: _Run, cand: Candidate, augment: AugmentConfig) -> dict:
+def _augmentation_step(run: TrainingRun, cand: Candidate, augment: AugmentConfig) -> dict:
     """The augmentation trial on the chosen candidate (:mod:`.augment_trial`)."""
     t0 = time.perf_counter()
     report, won = try_augmentation(cand, run.bank, run.ds, augment, run.seed, run.labels,
@@ -292,22 +249,7 @@ def _augmentation_step(run: _Run, cand: Candidate, augment: AugmentConfig) -> di
     return report
 
 
-@dataclass
-class Final:
-    """The exported model and what the evaluation needs of it."""
-
-    fitted: object
-    novelty: object
-    answers: dict[int, Answers]
-    """Out-of-fold answers of the chosen candidate (uncalibrated)."""
-    temps: list[float]
-    temperature: float
-    evaluated: dict[int, Answers]
-    """The answers the evaluation scores (calibrated)."""
-    seconds: float
-
-
-def _final_step(run: _Run, cand: Candidate) -> Final:
+def _final_step(run: TrainingRun, cand: Candidate) -> Final:
     """Temperatures from the out-of-fold answers, the model fitted on every training
     recording, and the answers the evaluation scores."""
     ans = run.oof[cand.name]
@@ -328,20 +270,3 @@ def _final_step(run: _Run, cand: Candidate) -> Final:
     else:
         evaluated = calibrated(ans, temps) if ans else {}
     return Final(fitted, novelty, ans, temps, t_final, evaluated, secs)
-
-
-def evaluation_of(ans: dict[int, Answers], labels: np.ndarray, classes: list[str]
-                  ) -> ModelEvaluation:
-    """Per window and per recording (its answer after the whole recording)."""
-    wt, wp, rt, rp = [], [], [], []
-    per = {}
-    for i, a in ans.items():
-        hit = a.probs.argmax(axis=1)
-        wt += [int(labels[i])] * len(hit)
-        wp += hit.tolist()
-        rt.append(int(labels[i]))
-        rp.append(int(np.argmax(a.run[-1])))
-        per[i] = float(np.mean(hit == labels[i]))
-    return ModelEvaluation(evaluate(wt, wp, classes, "windows"),
-                           evaluate(rt, rp, classes, "recordings"), per)
-

@@ -27,13 +27,13 @@ from .classify import (
     split_report,
 )
 from .features import as_recording
+from .material_run import Final, TrainingRun, TrainResult, evaluation_of
 from .reliability import apply_temperature, ece, plot_reliability
 from .scores import UNKNOWN_KEEP, accuracy_by_time, decision_curve, ece_of, time_to_decision
 from ..nets.figures import pyplot, save_png
 
 if TYPE_CHECKING:
     from .candidates import Candidate
-    from .material import Final, _Run
 
 MODEL_FILE = "material.onnx"
 REPORT_FILE = "report.json"
@@ -43,12 +43,11 @@ RELIABILITY_FILE = "reliability.png"
 CANDIDATES_FILE = "candidates.png"
 
 
-def write_outputs(run: _Run, cand: Candidate, final: Final, why: str, aug_report: dict,
+def write_outputs(run: TrainingRun, cand: Candidate, final: Final, why: str, aug_report: dict,
                   out: str | os.PathLike, kind: str, folds: int, test_fraction: float,
                   plot: bool, t_all: float):
     """Export the chosen model, measure every candidate's cost, write the report and the
     figures; returns the :class:`~.material.TrainResult`."""
-    from .material import TrainResult, evaluation_of
     from .classify import VibrationClassifier
 
     ds, labels, chosen = run.ds, run.labels, cand.name
@@ -151,7 +150,7 @@ def _warm(a, t: float):
     return cooled(a, 1 / t)
 
 
-def candidate_costs(run: _Run, model_path: Path, chosen: str, done=None) -> dict:
+def candidate_costs(run: TrainingRun, model_path: Path, chosen: str, done=None) -> dict:
     """Per candidate: parameters, training time of its last cross-validation fold,
     onnxruntime latency of one answer, and features + model for 1 s of 44.1 kHz audio."""
     from .classify import VibrationClassifier
