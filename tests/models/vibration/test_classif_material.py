@@ -26,7 +26,7 @@ from fingertip.models.vibration.classify import (
     stratified_folds,
 )
 from fingertip.models.vibration.features import FeatureError, as_recording, read_recording
-from fingertip.models.vibration.candidates import CANDIDATES
+from fingertip.models.vibration.candidates import CANDIDATES, DEFAULT_CANDIDATES
 from fingertip.models.vibration.material import train_material
 from fingertip.models.vibration.reliability import apply_temperature
 from fingertip.sim.physics import PAPER_SEVEN, Slide, simulate
@@ -270,8 +270,7 @@ def test_short_recordings_at_low_rates_train_without_options(data, tmp_path):
     rep = r.report
     assert rep["features"]["f_hi"] == 990 and rep["setup"]["features"]["f_lo"] == 30
     # the CNN is cross-validated or skipped by its budget rule, with the reason, never both
-    assert set(rep["candidates"]) | set(rep["candidates_skipped"]) == {
-        "baseline", "linear", "mlp", "ensemble", "cnn"}
+    assert set(rep["candidates"]) | set(rep["candidates_skipped"]) == set(DEFAULT_CANDIDATES)
     assert not set(rep["candidates"]) & set(rep["candidates_skipped"])
     for c in rep["candidates"].values():
         assert set(c["accuracy_by_time"]) == {"0.25 s", "0.5 s", "1 s", "2 s", "whole"}

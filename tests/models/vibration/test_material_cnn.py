@@ -96,19 +96,20 @@ def test_best_case_completes_answers_with_right_and_certain_ones():
 
 
 def test_speed_alone_is_tried_when_the_full_draw_is_rejected(folder, tmp_path, monkeypatch):
-    import fingertip.models.vibration.material as material
+    import fingertip.models.vibration.augment_trial as augment_trial
 
     seen = []
-    real = material._augmentation_trial
+    real = augment_trial._trial
 
-    def rejecting_full(cand, ds, cfg, *args):
-        one = real(cand, ds, cfg, *args)
+    def rejecting_full(cand, bank, ds, cfg, *args):
+        one, won = real(cand, bank, ds, cfg, *args)
         seen.append(cfg)
         if len(seen) == 1:  # the full draw: rejected whatever it scored
             one = dict(one, adopted=False, why=one["why"].split(":")[0] + ": not adopted")
-        return one
+            won = None
+        return one, won
 
-    monkeypatch.setattr(material, "_augmentation_trial", rejecting_full)
+    monkeypatch.setattr(augment_trial, "_trial", rejecting_full)
     full = AugmentConfig(copies=1)
     aug = train_material(folder, tmp_path / "s", folds=2, plot=False, models=("linear",),
                          augment=full).report["augmentation"]
