@@ -125,3 +125,11 @@ def atomic_output(dest: PathLike) -> Iterator[Path]:
             os.unlink(tmp)
         raise
     replace(tmp, dest)
+
+
+def write_text(dest: PathLike, text: str) -> Path:
+    """``text`` (UTF-8) written to ``dest`` through :func:`atomic_output`: a reader, or a
+    crash, never leaves half a file."""
+    with atomic_output(dest) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return Path(dest)

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .events import Event
+from .outputs import atomic_output
 
 
 def _spectrogram(x: np.ndarray, fs: float, nfft: int = 1024, hop: int = 256
@@ -98,6 +99,7 @@ def session_summary(path: str | Path, *, force_t: np.ndarray, counts: np.ndarray
     axes[-1, 0].set_xlabel("time (s)")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=110, format=Path(path).suffix[1:] or "png")
     plt.close(fig)
     return path

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import atomic_output
 from .signals import FACES, expected_response
 
 
@@ -47,6 +48,7 @@ def plot_check(rest, responses: dict, path: str | Path, title: str = "") -> Path
     if title:
         fig.suptitle(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=90, format=Path(path).suffix[1:] or "png")
     plt.close(fig)
     return Path(path)

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ...outputs import atomic_output, write_text
 from ...reference import ReferenceError, ReferenceSamples
 from .align import Alignment, AlignmentError, Joined, estimate_offset, join
 from ..nets.figures import pyplot, save_png
@@ -157,9 +158,9 @@ def fit_joined(joined: Joined, out_dir: str | Path, *, gain: int = 128, unit: st
     report = fit_calibration(data, out, split=fit_kw.pop("split", "trial"), plot=plot,
                              extra_metadata=meta, **fit_kw)
     write_joined(joined, out / "joined.csv")
-    (out / "alignment.json").write_text(json.dumps(
+    write_text(out / "alignment.json", json.dumps(
         {**joined.alignment.as_dict(), "dropped": joined.dropped,
-         "rows_joined": len(joined.times_s)}, indent=1) + "\n", encoding="utf-8")
+         "rows_joined": len(joined.times_s)}, indent=1) + "\n")
     if plot:
         report.files["report_plot"] = "calibration_report.png"
         plot_report(data, out / "force.onnx", out / "calibration_report.png", report.split)
@@ -167,7 +168,7 @@ def fit_joined(joined: Joined, out_dir: str | Path, *, gain: int = 128, unit: st
 
 
 def write_joined(joined: Joined, path: Path) -> None:
-    with path.open("w", newline="", encoding="utf-8") as fh:
+    with atomic_output(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
         w.writerow(["time_s", *[f"ch{i}" for i in range(CHANNELS)], "fx", "fy", "fz"])
         for t, c, f in zip(joined.times_s, joined.counts, joined.force, strict=True):

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from ...outputs import write_text
 from ...protocol import INT24_MAX, INT24_MIN
 from .calibration.checks import check_dataset, describe, design_condition
 from .calibration.data import CalibrationData, from_arrays, load_dataset
@@ -131,7 +132,6 @@ def fit_calibration(data: CalibrationData, out_dir: str | os.PathLike, *,
     if plot:
         files["plot"] = "speed_vs_error.png"
         _plot(report, out / files["plot"])
-    (out / files["json"]).write_text(json.dumps(report.as_dict(), indent=1) + "\n",
-                                     encoding="utf-8")
-    (out / files["markdown"]).write_text(report.markdown(), encoding="utf-8")
+    write_text(out / files["json"], json.dumps(report.as_dict(), indent=1) + "\n")
+    write_text(out / files["markdown"], report.markdown())
     return report

@@ -6,6 +6,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ...outputs import atomic_output
+
 
 def pyplot() -> Any:
     """``matplotlib.pyplot`` on the Agg backend, unless the caller already chose one
@@ -25,6 +27,7 @@ def save_png(fig: Any, path: str | os.PathLike, dpi: float | None = None) -> Pat
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi="figure" if dpi is None else dpi)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi="figure" if dpi is None else dpi, format=path.suffix[1:] or "png")
     pyplot().close(fig)
     return path

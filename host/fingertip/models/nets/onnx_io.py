@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ...badfile import BadFileError, require_file
+from ...outputs import atomic_output
 
 
 def onnx_builder() -> tuple[Any, Any, Any, Any]:
@@ -46,7 +47,8 @@ def save_graph(graph: Any, path: str | Path, metadata: dict[str, Any], opset: in
     onnx.checker.check_model(model)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(model, str(path))
+    with atomic_output(path) as tmp:  # a reader never sees half a model
+        onnx.save(model, str(tmp))
     return path
 
 

@@ -26,6 +26,7 @@ from .classify import (
     plot_confusion,
     split_report,
 )
+from ...outputs import write_text
 from .features import as_recording
 from .material_run import Final, TrainingRun, TrainResult, evaluation_of
 from .reliability import apply_temperature, ece, plot_reliability
@@ -127,8 +128,7 @@ def write_outputs(run: TrainingRun, cand: Candidate, final: Final, why: str, aug
                    "latency_1s_audio_44k1_ms": costs[chosen]["latency_1s_audio_44k1_ms"]},
     }
     files = [model_path, out / REPORT_FILE]
-    (out / REPORT_FILE).write_text(json.dumps(json_safe(report), indent=1) + "\n",
-                                   encoding="utf-8")
+    write_text(out / REPORT_FILE, json.dumps(json_safe(report), indent=1) + "\n")
     if plot:
         ev = evaluation.recordings
         files.append(plot_confusion(

@@ -52,6 +52,7 @@ from .classify import (
     stack,
     validation_split,
 )
+from ...outputs import write_text
 from ..nets.cnn import CnnSpec, SmallResNet, blas_threads, train_cnn
 from .features import FeatureConfig, as_recording
 from .window_features import pooled
@@ -226,9 +227,8 @@ def train_shake(folder: str | os.PathLike | Dataset, out: str | os.PathLike, *,
         "timing": {"features_s": round(t_features, 3),
                    "total_s": round(time.perf_counter() - t_all, 3)},
     }
-    (out / REPORT_FILE).write_text(json.dumps(json_safe(report), indent=1) + "\n",
-                                   encoding="utf-8")
-    (out / TABLE_FILE).write_text(comparison_table(results, verdict), encoding="utf-8")
+    write_text(out / REPORT_FILE, json.dumps(json_safe(report), indent=1) + "\n")
+    write_text(out / TABLE_FILE, comparison_table(results, verdict))
     files = [r.path for r in results.values()] + [out / REPORT_FILE, out / TABLE_FILE] + files
     return ShakeResult(out, results, report, verdict, files)
 

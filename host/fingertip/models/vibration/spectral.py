@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from ...outputs import atomic_output
 from ..nets.onnx_io import onnx_builder
 
 SVM_C = 10.0
@@ -196,5 +197,6 @@ def to_onnx(model: SpectralModel, path: str | Path, *, temperature: float = 1.0,
     onnx.checker.check_model(m)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    onnx.save(m, str(path))
+    with atomic_output(path) as tmp:  # a reader never sees half a model
+        onnx.save(m, str(tmp))
     return path
