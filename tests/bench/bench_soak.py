@@ -255,12 +255,15 @@ def soak(minutes: float, workdir: Path) -> dict[str, float]:
         det.start()
         t0 = time.monotonic()
         rss0 = None
+        rss_minutes: list[int] = []  # MB once a minute: a leak climbs, a warm-up levels off
         next_kill = t0 + kill_every
         k = 0
         hand_frames = 0
         while (now := time.monotonic()) < t0 + total_s:
             if rss0 is None and now - t0 >= warmup_s:
                 rss0 = rss_kb()
+            if now - t0 >= 60 * len(rss_minutes):
+                rss_minutes.append(rss_kb() // 1024)
             if now >= next_kill and now + 20 < t0 + total_s:
                 f = FINGERS[k % len(FINGERS)]
                 w = watches[f]
@@ -323,7 +326,8 @@ def soak(minutes: float, workdir: Path) -> dict[str, float]:
                       "overruns", "reconnects", "device_resets")}
     print(f"soak: {minutes:g} min, {raw_frames} frames recorded, {len(kills)} kills, "
           f"events {events}, reconnects {[round(x, 3) for x in reconnect_s]}, RSS "
-          f"{rss0} -> {rss1} kB, sample gaps {gaps}, hand overruns {hand.overruns}, "
+          f"{rss0} -> {rss1} kB (MB a minute: {rss_minutes}), sample gaps {gaps}, "
+          f"hand overruns {hand.overruns}, "
           f"recorder dropped {dict(rs.dropped)}, frames seen {seen} recorded {raw_frames}, "
           f"link {link}", file=sys.stderr)
     return {

@@ -28,6 +28,7 @@ from mcap.writer import Writer as McapWriter
 
 from ..badfile import BadFileError, require_file
 from ..outputs import atomic_output, check_output
+from .packed_index import pack_chunk_indexes
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_FOOTER, OP_CHUNK = 0x02, 0x06
@@ -228,6 +229,7 @@ def _copy(f, size: int, tmp: Path, result: RepairResult, chunk_size: int,
     channels: dict[int, tuple[int, str]] = {}
     with open(tmp, "wb") as sink:
         writer = McapWriter(sink, chunk_size=chunk_size, compression=compression)
+        pack_chunk_indexes(writer)
         started = False
         for pos, opcode, record in _walk(f, size, result):
             try:
