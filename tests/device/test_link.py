@@ -105,11 +105,11 @@ def test_a_write_racing_a_close_is_a_transport_error(tmp_path):
     dev = PtyDevice(VirtualFirmware(4)).start()
     try:
         s = open_serial(dev.port)
-        os.close(s._ser.fd)
-        s._ser.fd = None  # close() in progress on another thread: fd gone, is_open not yet
+        os.close(s.serial.fd)
+        s.serial.fd = None  # close() in progress on another thread: fd gone, is_open not yet
         with pytest.raises(TransportError):
             s.write(b"\x00")
-        s._ser.is_open = False
+        s.serial.is_open = False
     finally:
         dev.stop()
 

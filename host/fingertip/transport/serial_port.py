@@ -40,6 +40,12 @@ class SerialStream:
     def is_open(self) -> bool:
         return self._ser.is_open
 
+    @property
+    def serial(self) -> serial.Serial:
+        """The pyserial port underneath, for what this class does not wrap (its errors are
+        pyserial's own, not :class:`TransportError`)."""
+        return self._ser
+
     def fileno(self) -> int | None:
         """The descriptor a caller may wait on (selectors) before :meth:`read`, or None."""
         return self._fd if self._ser.is_open else None

@@ -107,7 +107,7 @@ def test_stft_matches_scipy_shorttimefft():
     assert np.allclose(raw[2:], ref, rtol=1e-9, atol=1e-9 * ref.max())
     # A DC offset (or each frame's mean) only reaches FFT bins 0 and 1 with a periodic Hann
     # window; no band does, so the offset cannot leak into the features.
-    assert not st._dc_bins and not st.weights[:2].any()
+    assert not st.dc_bins and not st.weights[:2].any()
     centred = frames - frames.mean(axis=1, keepdims=True)
     ours = np.abs(np.fft.rfft(centred * w, axis=1)) ** 2
     assert np.allclose(ours[:, 2:], raw[:, 2:], rtol=1e-9, atol=1e-9 * raw.max())

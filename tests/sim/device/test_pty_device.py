@@ -34,7 +34,7 @@ def test_a_command_after_a_late_wake_up_loses_no_sample():
         for k in range(3):
             # Holding the serving lock stands in for a loop the scheduler woke late: the
             # command comes in while conversions fall due (0.1 s = 8 at 80 Hz).
-            with dev._lock:
+            with dev.held():
                 os.write(fd, encode(Ping(100 + k)))
                 time.sleep(0.1)
             msgs += dec.feed(_read_for(fd, 0.1))

@@ -64,7 +64,7 @@ def test_gauge_reads_misalignment_poisson_and_transverse_sensitivity():
     p = s.params
     eps = s.surface_strain([2.0, 0.0], 1.0)
     gamma = np.zeros_like(eps)
-    got = s._gauge(eps, gamma)
+    got = s.gauge_strain(eps, gamma)
     nu, kt, eta = p.materials.pla_poisson, p.gauge.transverse_sensitivity, p.gauge.glue_transfer
     along = eps * (math.cos(th) ** 2 - nu * math.sin(th) ** 2)
     across = eps * (math.sin(th) ** 2 - nu * math.cos(th) ** 2)

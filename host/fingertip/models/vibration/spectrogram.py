@@ -44,7 +44,8 @@ class Stft:
         self._frames = np.zeros((0, self.n_fft), dtype=self.dtype)
         self._power = np.zeros((0, len(self.freqs)), dtype=self.dtype)
         self._tmp = np.zeros((0, len(self.freqs)), dtype=self.dtype)
-        self._dc_bins = bool(np.any(self.weights[:2] != 0))
+        self.dc_bins = bool(np.any(self.weights[:2] != 0))
+        """Whether a band reaches FFT bins 0 and 1 (then each frame's mean is removed)."""
 
     def n_frames(self, n_samples: int) -> int:
         if n_samples < self.win:
@@ -91,7 +92,7 @@ class Stft:
         frames = padded[:, :self.win]
         view = np.lib.stride_tricks.sliding_window_view(xs, self.win)
         frames[...] = view[self.frame_starts(k)]  # one gather (np.take would copy the view)
-        if self._dc_bins:
+        if self.dc_bins:
             frames -= frames.mean(axis=1, keepdims=True)
         frames *= self.window
         spec = scipy.fft.rfft(padded, axis=1, workers=1)

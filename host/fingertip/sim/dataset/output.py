@@ -152,7 +152,8 @@ def _remove_dataset(out: Path, meta: dict[str, Any]) -> None:
             pass
 
 
-def _write_meta(out: Path, meta: dict[str, Any]) -> None:
+def write_meta(out: Path, meta: dict[str, Any]) -> None:
+    """Write the dataset's description (dataset.json) atomically into ``out``."""
     from ...outputs import atomic_output
 
     with atomic_output(out / META_FILE) as tmp:
@@ -169,7 +170,8 @@ class DatasetResult:
     wall_s: float = 0.0
 
 
-def _check_int(name: str, value: int, lo: int, hi: int | None = None) -> int:
+def check_int(name: str, value: int, lo: int, hi: int | None = None) -> int:
+    """``value`` as an int in [lo, hi], or a :class:`DatasetError` naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise DatasetError(f"{name} must be an integer, not {value!r}")
     if value < lo or (hi is not None and value > hi):
@@ -178,7 +180,9 @@ def _check_int(name: str, value: int, lo: int, hi: int | None = None) -> int:
     return int(value)
 
 
-def _load_params(params_file: str | os.PathLike | None):
+def load_params_file(params_file: str | os.PathLike | None):
+    """The fingertip's parameters (the hardware's own when None) and the file they came from;
+    a :class:`DatasetError` says why a file cannot be read."""
     if params_file is None:
         return load(), None
     try:
@@ -190,5 +194,6 @@ def _load_params(params_file: str | os.PathLike | None):
         raise DatasetError(f"bad parameter file {params_file}: {e}") from e
 
 
-def _derived_seed(*parts: int) -> int:
+def derived_seed(*parts: int) -> int:
+    """A 31-bit seed drawn from ``parts``: one independent stream per recording."""
     return int(np.random.SeedSequence(list(parts)).generate_state(1)[0] & 0x7FFFFFFF)

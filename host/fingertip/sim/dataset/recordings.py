@@ -33,10 +33,10 @@ from .output import (
     DatasetError,
     DatasetResult,
     Progress,
-    _check_int,
-    _derived_seed,
-    _load_params,
-    _write_meta,
+    check_int,
+    derived_seed,
+    load_params_file,
+    write_meta,
     params_sha256,
     prepare_output,
 )
@@ -141,7 +141,7 @@ def plan_vibration(kind: str, recordings_per_class: int, seconds: float | None,
     plans = []
     for ci, cls in enumerate(classes):
         for k in range(recordings_per_class):
-            rs = _derived_seed(seed, kind_tag, ci, k)
+            rs = derived_seed(seed, kind_tag, ci, k)
             rng = np.random.default_rng(np.random.SeedSequence([rs, 0x5CE]))
             scene: Scene
             if kind == "materials":
@@ -189,9 +189,9 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
     when that differs (:func:`resample`), then quantised to 16 bits.
     """
     n_rec = DEFAULT_RECORDINGS.get(kind, 1) if recordings_per_class is None \
-        else _check_int("recordings per class", recordings_per_class, 1, 100_000)
-    seed = _check_int("seed", seed, 0, 2 ** 31 - 1)
-    rate = _check_int("rate", rate, MIN_RATE_HZ, MAX_RATE_HZ)
+        else check_int("recordings per class", recordings_per_class, 1, 100_000)
+    seed = check_int("seed", seed, 0, 2 ** 31 - 1)
+    rate = check_int("rate", rate, MIN_RATE_HZ, MAX_RATE_HZ)
     if fmt not in FORMATS:
         raise DatasetError(f"format must be one of {', '.join(FORMATS)}, not {fmt!r}")
     if seconds is not None:
@@ -204,7 +204,7 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
     if task_variation and kind != "shake":
         raise DatasetError(f"task variation applies to shake recordings only, not {kind!r}")
     plans = plan_vibration(kind, n_rec, seconds, seed, task_variation=task_variation)
-    params, pfile = _load_params(params_file)
+    params, pfile = load_params_file(params_file)
     out = Path(out)
     w0 = time.monotonic()
     warnings = prepare_output(out, force)
@@ -233,7 +233,7 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
     import soundfile as sf
 
     try:
-        _write_meta(out, meta)
+        write_meta(out, meta)
         for c in classes:
             (out / c).mkdir(exist_ok=True)
         bar = Progress(len(plans), f"{kind} {out}", enabled=progress)
@@ -265,7 +265,7 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
                     on_recording(rel)
         meta["complete"] = True
         meta["recordings"] = len(plans)
-        _write_meta(out, meta)
+        write_meta(out, meta)
     except OSError as e:
         raise DatasetError(f"writing into {out} failed: {e.strerror or e}", 1) from e
     except sf.SoundFileError as e:

@@ -21,10 +21,10 @@ from .output import (
     DatasetError,
     DatasetResult,
     Progress,
-    _check_int,
-    _derived_seed,
-    _load_params,
-    _write_meta,
+    check_int,
+    derived_seed,
+    load_params_file,
+    write_meta,
     params_sha256,
     prepare_output,
 )
@@ -70,16 +70,16 @@ def write_calibration(out: str | os.PathLike, *, units: int = 1, seed: int = 0,
     ``sweeps`` times in a row (one continuous history: hysteresis and creep carry over;
     each sweep draws its own trial order and contact points).
     """
-    units = _check_int("units", units, 1, 10_000)
-    seed = _check_int("seed", seed, 0, 2 ** 31 - 1 - units)
-    sweeps = _check_int("sweeps", sweeps, 1, 100)
-    samples_per_step = _check_int("samples per step", samples_per_step, 1, 64)
-    tare_samples = _check_int("tare samples", tare_samples, 0, 256)
+    units = check_int("units", units, 1, 10_000)
+    seed = check_int("seed", seed, 0, 2 ** 31 - 1 - units)
+    sweeps = check_int("sweeps", sweeps, 1, 100)
+    samples_per_step = check_int("samples per step", samples_per_step, 1, 64)
+    tare_samples = check_int("tare samples", tare_samples, 0, 256)
     if rate_sps not in (10, 80):
         raise DatasetError(f"rate must be 10 or 80 SPS (the HX711's RATE pin), not {rate_sps}")
     if not (isinstance(max_force_n, (int, float)) and 0 < max_force_n <= 50):
         raise DatasetError(f"max force must be in (0, 50] N, not {max_force_n!r}")
-    params, pfile = _load_params(params_file)
+    params, pfile = load_params_file(params_file)
     out = Path(out)
     w0 = time.monotonic()
     warnings = prepare_output(out, force)
@@ -100,7 +100,7 @@ def write_calibration(out: str | os.PathLike, *, units: int = 1, seed: int = 0,
         "columns": CALIBRATION_COLUMNS, "files": files,
     }
     try:
-        _write_meta(out, meta)
+        write_meta(out, meta)
         bar = Progress(units * sweeps, f"calibration {out}", enabled=progress)
         for unit, name in zip(unit_seeds, files, strict=True):
             sensor = VirtualStrainSensor(unit, params=params, rate_sps=rate_sps)
@@ -119,7 +119,7 @@ def write_calibration(out: str | os.PathLike, *, units: int = 1, seed: int = 0,
                 w.writerow(CALIBRATION_COLUMNS)
                 for k in range(sweeps):
                     sw = calibration_sweep(
-                        sensor, seed=_derived_seed(seed, unit, k, 0xCA1),
+                        sensor, seed=derived_seed(seed, unit, k, 0xCA1),
                         samples_per_step=samples_per_step, max_force_n=float(max_force_n),
                         t0_us=t_next_us + 1_000_000)
                     _write_sweep_rows(w, sw, offsets, period_us, k, unit)
@@ -129,7 +129,7 @@ def write_calibration(out: str | os.PathLike, *, units: int = 1, seed: int = 0,
             meta["tare_offsets"][name] = offsets
             meta["rows"][name] = rows
         meta["complete"] = True
-        _write_meta(out, meta)
+        write_meta(out, meta)
     except OSError as e:
         raise DatasetError(f"writing into {out} failed: {e.strerror or e}", 1) from e
     return DatasetResult(out, [Path(n) for n in files], meta, warnings, time.monotonic() - w0)

@@ -15,6 +15,7 @@ import termios
 import threading
 import time
 import tty
+from collections.abc import Iterator
 from pathlib import Path
 
 from .virtual_firmware import VirtualFirmware
@@ -78,6 +79,14 @@ class PtyDevice:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Hold the serving loop for the block, as a loop the scheduler wakes late does:
+        nothing is read or sent meanwhile, and the conversions that fell due are served
+        when it ends."""
+        with self._lock:
+            yield
 
     def unplug(self) -> None:
         """Close the pty: the host sees its port vanish (reads fail, the path is gone)."""

@@ -257,7 +257,7 @@ class VirtualStrainSensor:
             shear.append(ft * (c ** 2 - e_lat ** 2) / (2 * i_sec * g_mod))
         return eps
 
-    def _gauge(self, eps: np.ndarray, gamma: np.ndarray) -> np.ndarray:
+    def gauge_strain(self, eps: np.ndarray, gamma: np.ndarray) -> np.ndarray:
         """Strain read by each gauge: misalignment, Poisson, shear, transverse sensitivity."""
         u, p = self.unit, self.params
         nu = p.materials.pla_poisson
@@ -373,7 +373,7 @@ class VirtualStrainSensor:
         fz = np.broadcast_to(np.asarray(force_z, float), t.shape)
         shear: list[np.ndarray] = []
         surface = self._surface(f, zc, fz, shear)
-        gauge = self._gauge(surface, shear[0])
+        gauge = self.gauge_strain(surface, shear[0])
         mech = self._creep(self._hysteresis(gauge, update_state), t, update_state)
         mech = self._slow.apply(mech, t, update_state)
         temp = None
