@@ -136,8 +136,8 @@ lint: venv
 	$(VENV)/bin/ruff check host tests pcb mechanical studies
 
 # pytest in two passes: the tests not marked `realtime` spread over PYTEST_WORKERS processes
-# (pytest-xdist, a module at a time: its module fixtures are built once, its tests never run
-# beside one another), then the `realtime` ones (they assert on wall-clock time) one at a
+# (pytest-xdist, test by test; the tests of a module that share a module fixture stay
+# together on one worker, which builds it once: tests/conftest.py), then the `realtime` ones (they assert on wall-clock time) one at a
 # time, with no other test beside them. PYTEST_ARGS goes to both.
 # pytest exits 5 when it collected nothing: when neither pass ran a test, that must fail,
 # never pass as "green"; one pass may be empty (PYTEST_ARGS=tests/protocol has no realtime
@@ -145,7 +145,7 @@ lint: venv
 PYTEST_WORKERS ?= 3
 test-python: venv venv-fab pcb-tools hostlib
 	@rc1=0; rc2=0; \
-	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadscope -m "not realtime" $(PYTEST_ARGS) \
+	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -m "not realtime" $(PYTEST_ARGS) \
 	    || rc1=$$?; \
 	$(VPY) -m pytest -n 0 -m realtime $(PYTEST_ARGS) || rc2=$$?; \
 	if [ $$rc1 -eq 5 ] && [ $$rc2 -eq 5 ]; then \

@@ -51,3 +51,25 @@ def fil_builds() -> None:
         firmware_elf(4)
     except HarnessError as e:
         pytest.fail(f"{e} (make test builds both before running pytest)")
+
+
+# --- how pytest-xdist spreads the suite (make test: --dist loadgroup) ---------------------
+_SHARED_SCOPES = {"module", "class", "package"}
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """A test that uses a fixture built once per module (or class, or package) joins its
+    module's group, so the fixture is built once, on one worker; every other test is spread
+    on its own, so one long module no longer holds a worker while the others wait. Runs
+    before xdist's own hook, which reads the groups."""
+    # On the workers xdist sets `dist` to "no" and keeps the choice in `loadgroup`.
+    if not getattr(config.option, "loadgroup", False) and \
+            config.getoption("dist", "no") != "loadgroup":
+        return
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)  # pytest's, read by most xdist plugins
+        defs = info.name2fixturedefs.values() if info is not None else None
+        shared = defs is None or any(d[-1].scope in _SHARED_SCOPES for d in defs if d)
+        if shared and item.get_closest_marker("xdist_group") is None:
+            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))

@@ -12,7 +12,9 @@ from fingertip.sim.experiment import BOX_GRIP_Z_MM, run_shake, shake_table
 from fingertip.tasks.shake_pick import ShakeConfig, read_box, shake_and_pick
 from fingertip.sim.world.boxes import BOX_X_MM, make_box_world, shake_model_path
 
-TRIALS = 56
+TRIALS = 12
+"""Six a material, each pair in random order; `make bench` runs the paper's 56
+(`shake_pick_success`, goal 53/56)."""
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +31,8 @@ def test_shake_and_pick_trials(clf):
     r = run_shake(TRIALS, seed=0)
     s = r.summary()
     assert {m: v["trials"] for m, v in s["per_target"].items()} == {
-        "screws": 28, "rubber_bands": 28}
-    assert s["success"] >= 53, (s, [t for t in r.trials if t["failure"]])
+        "screws": TRIALS // 2, "rubber_bands": TRIALS // 2}
+    assert s["success"] >= TRIALS - 1, (s, [t for t in r.trials if t["failure"]])
     assert sum(s["failure_modes"].values()) == TRIALS - s["success"]
     assert s["box_votes"] == 2 * TRIALS
     assert all(b["predictions"] == 46 for t in r.trials for b in t["boxes"])  # 10 Hz
