@@ -3,6 +3,7 @@ and writers (rmw_dds_common's ParticipantEntitiesInfo as of Jazzy, decoded with 
 Jazzy types); the GIDs are the GUIDs DDS discovery reports for those endpoints."""
 from __future__ import annotations
 
+import signal
 import time
 import uuid
 
@@ -11,14 +12,17 @@ from rosbags.typesys import Stores, get_typestore
 from fingertip.network.dds import LATCHED, DdsNode
 from fingertip.network.ros_types import PARTICIPANT_ENTITIES
 
-from .conftest import start
+from .conftest import start, wait_line
 
 
 def test_the_node_and_its_endpoints_are_announced():
-    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "4")
+    # Until stopped: a publisher that ended on its own before a busy machine discovered it
+    # would take its announcement with it.
+    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "120")
     node = DdsNode()
     infos: list[bytes] = []
     try:
+        wait_line(pub, "publishing")
         node.reader("ros_discovery_info", PARTICIPANT_ENTITIES, LATCHED, infos.append)
         from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication
 
@@ -45,5 +49,6 @@ def test_the_node_and_its_endpoints_are_announced():
         assert len(info.reader_gid_seq) == 1  # the tare service's request reader
     finally:
         node.close()
+        pub.send_signal(signal.SIGINT)
         _, err = pub.communicate(timeout=60)
-    assert pub.returncode == 0, err
+    assert pub.returncode == 0, err  # Ctrl-C is how a user ends publishing: a clean end

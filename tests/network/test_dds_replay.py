@@ -26,7 +26,7 @@ def test_replay_with_sim_time_publishes_the_recording_and_clock(tmp_path):
     def on_clock(d: bytes) -> None:
         sec, nsec = struct.unpack_from("<iI", d, 4)
         clock.append(sec * S.NS + nsec)
-    node.reader("rt/clock", CLOCK, SENSOR, on_clock)
+    node.reader("rt/clock", CLOCK, SENSOR, on_clock, depth=1000)  # a busy test keeps all
     sub = start("record", "--from", "dds", "--name", "index", "-o", str(remote))
     try:
         wait_line(sub, "recording index from dds")
