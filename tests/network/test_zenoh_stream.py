@@ -75,7 +75,7 @@ def test_every_message_of_a_10s_run_arrives_over_zenoh(tmp_path):
     assert parts[9:12] == ["%fingertip%index%raw", "fingertip_msgs::msg::dds_::StrainRaw_",
                            Z.type_hash(S.STRAIN_RAW)]
     assert parts[12] == "2::,5:,:,:,,"  # best effort, keep last 5
-    assert len(pubs) == 5
+    assert len(pubs) == 5, pubs  # raw, wrench, audio, events, info
     assert len(sent[S.topic("index", "raw")]) >= 780
 
 
