@@ -178,8 +178,14 @@ def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: b
     dev.replug(reboot=reboot)
     assert wait_for(lambda: ft.stats.outage_frames > 0, 5.0)
     frames = ft.drain()
-    k = next(i for i, (a, b) in enumerate(zip(frames, frames[1:], strict=False))
-             if b.host_time - a.host_time > away_s)
+    pairs = list(zip(frames, frames[1:], strict=False))
+    # Found by the device's clock, not the host's: a busy host can hold two consecutive
+    # frames apart for longer than the outage.
+    if reboot:  # its clock began again
+        k = next(i for i, (a, b) in enumerate(pairs) if b.device_time_us < a.device_time_us)
+    else:  # its clock ran on: the one long step
+        k = max(range(len(pairs)),
+                key=lambda i: pairs[i][1].device_time_us - pairs[i][0].device_time_us)
     assert ft.gone_s is None
     return frames[k], frames[k + 1]
 

@@ -49,8 +49,12 @@ def test_injected_values_arrive_exactly_on_every_channel(make_sim, channels):
                     for c in range(channels)]
             for c, v in enumerate(want):
                 sim.set(c, v)
-            frames = frames_after(ft, 3)
-            f = frames[-1]
+            # Frames converted before the last set may still be on their way to a busy host:
+            # the values must arrive within 40 frames (0.5 s of device time) and stay.
+            seen = frames_after(ft, 40)
+            hit = next((i for i, f in enumerate(seen) if list(f.counts) == want), None)
+            assert hit is not None and hit < 38, (k, want, [f.counts for f in seen[-3:]])
+            f = seen[-1]
             assert list(f.counts) == want, k
             sat = sum(1 << c for c, v in enumerate(want) if v in (0x7FFFFF, -0x800000))
             assert f.saturation_mask == sat and f.timeout_mask == 0
