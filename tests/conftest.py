@@ -73,3 +73,18 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         shared = defs is None or any(d[-1].scope in _SHARED_SCOPES for d in defs if d)
         if shared and item.get_closest_marker("xdist_group") is None:
             item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """xdist tells the controller a test's group by a suffix on its node id; pytest 9.2
+    ignores that (pytest-xdist#1386), and the groups would be lost without a word: the
+    module fixtures built on every worker, the suite far slower. Say so instead."""
+    if not getattr(session.config.option, "loadgroup", False):
+        return
+    lost = [i.nodeid for i in session.items
+            if i.get_closest_marker("xdist_group") and "@" not in i.nodeid]
+    if lost:
+        raise pytest.UsageError(f"pytest-xdist's loadgroup lost the group of {lost[0]} (and "
+                                f"{len(lost) - 1} more): pytest {pytest.__version__} with "
+                                "this xdist does not keep groups (pytest-xdist#1386); "
+                                "requirements/dev.txt pins a pytest that does")
