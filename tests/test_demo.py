@@ -31,7 +31,10 @@ def test_demo_on_the_firmware(tmp_path):
     r = run_demo(tmp_path, use_firmware=True, live=False)
     assert r.png.exists() and r.png.stat().st_size > 50_000
     assert r.stats["frames_lost"] == 0 and r.stats["crc_errors"] == 0
-    assert r.stats["frames"] > 80 * 12 * 0.95
+    # Every frame of the device's own clock arrived (a starved machine slows simavr, and
+    # so the number of frames in the scene's 12 s, but never their continuity).
+    steps = (r.frames[-1].device_time_us - r.frames[0].device_time_us) / 12_500
+    assert r.stats["frames"] == len(r.frames) == round(steps) + 1 > 80 * 3
     assert r.stats["audio_overflows"] == 0
     # The quick start quotes the calibration line the demo prints (same unit: the CLI's
     # default seed is run_demo's): the model kept and its error, to 5 mN.

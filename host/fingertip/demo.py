@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .audio import SimulatedSource
+from .audio.pcm import to_float
 from .device import Fingertip, Frame
 from .events import Event, contact_intervals, vibration_onsets
 from .plots import session_summary
@@ -216,8 +217,8 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
                 # Every half second: the material of the last 0.6 s, the rims so far.
                 next_check = now + 0.5
                 recent = np.concatenate([c.samples.reshape(-1) for c in chunks[-60:]])
-                label = _live_material(material, recent[-int(0.6 * fs):] / 32768, fs)
-                heard = np.concatenate([c.samples.reshape(-1) for c in chunks]) / 32768
+                label = _live_material(material, to_float(recent[-int(0.6 * fs):]), fs)
+                heard = to_float(np.concatenate([c.samples.reshape(-1) for c in chunks]))
                 rims = sum(1 for e in vibration_onsets(heard, fs, t0=chunks[0].host_time)
                            if e.time - host_start > 9.0)  # during the cup slide
             if forces:
@@ -246,7 +247,7 @@ def run_demo(out_dir: str | Path = "demo-output", *, use_firmware: bool | None =
     scene_frames = [f for f in frames if f.host_time >= host_start - 0.2]
     t_force = np.array([f.host_time - host_start for f in scene_frames])
     counts = np.array([f.counts for f in scene_frames], dtype=np.float64)
-    audio = np.concatenate([c.samples.reshape(-1) for c in chunks]).astype(np.float32) / 32768
+    audio = to_float(np.concatenate([c.samples.reshape(-1) for c in chunks])).astype(np.float32)
     audio_t0 = chunks[0].host_time - host_start if chunks else 0.0
     events = contact_intervals(t_force, counts) + vibration_onsets(audio, fs, t0=audio_t0)
     events.sort(key=lambda e: e.time)

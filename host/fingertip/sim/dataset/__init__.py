@@ -43,7 +43,6 @@ from .recordings import (
     TASK_PREAMP_GAIN,
     plan_vibration,
     resample,
-    to_int16,
     write_vibration,
 )
 from .sweep_csv import CALIBRATION_COLUMNS, read_calibration_csv, write_calibration
@@ -53,6 +52,6 @@ __all__ = [
     "MANIFEST_COLUMNS", "MANIFEST_FILE", "MAX_RATE_HZ", "META_FILE", "MIN_RATE_HZ",
     "TASK_AMPLITUDE_GAIN", "TASK_BOX_ITEMS", "TASK_MAINS_HZ", "TASK_PREAMP_GAIN",
     "DatasetError", "DatasetResult", "Progress", "params_sha256", "plan_vibration",
-    "prepare_output", "read_calibration_csv", "resample", "to_int16", "write_calibration",
+    "prepare_output", "read_calibration_csv", "resample", "write_calibration",
     "write_vibration",
 ]

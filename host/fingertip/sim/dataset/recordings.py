@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ... import __version__
+from ...audio.pcm import to_float, to_pcm
 from ..physics import (
     BOX_CONTENTS,
     PAPER_SEVEN,
@@ -94,12 +95,6 @@ def resample(x: np.ndarray, fs_in: int, fs_out: int) -> np.ndarray:
     y = np.fft.irfft(out_spec, m_total) * (m_total / total)
     off = pad * p // q
     return y[off:off + m]
-
-
-def to_int16(x: np.ndarray) -> np.ndarray:
-    """Normalised samples (1.0 = full scale) -> int16, rounded and clipped (x 32768)."""
-    return np.clip(np.rint(np.asarray(x, dtype=np.float64) * 32768.0), -32768, 32767
-                   ).astype(np.int16)
 
 
 @dataclass(frozen=True)
@@ -246,12 +241,12 @@ def write_vibration(out: str | os.PathLike, *, kind: str = "materials",
                 x = res.audio.samples
                 if rate != chain.fs:
                     x = resample(x, chain.fs, rate)
-                pcm = to_int16(x)
+                pcm = to_pcm(x, "int16")
                 rel = pl.stem + ext
                 sf.write(str(out / rel), pcm, rate, subtype="PCM_16", format=fmt.upper())
                 if kind == "cups":
                     _write_cup_truth(out, pl, res.events, rate)
-                xf = pcm.astype(np.float64) / 32768.0
+                xf = to_float(pcm)
                 rms = float(np.sqrt(np.mean(xf ** 2))) if len(xf) else 0.0
                 sp = _scene_params(pl.scene)
                 speed = sp.get("speed_mm_s", "")
