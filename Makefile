@@ -143,6 +143,11 @@ lint: venv
 # never pass as "green"; one pass may be empty (PYTEST_ARGS=tests/protocol has no realtime
 # test).
 PYTEST_WORKERS ?= 3
+# One BLAS/OpenMP thread a test process: three workers on two cores, each with a pool of its
+# own, would oversubscribe the cores (OpenBLAS spins while it waits).
+test-python: export OMP_NUM_THREADS = 1
+test-python: export OPENBLAS_NUM_THREADS = 1
+test-python: export MKL_NUM_THREADS = 1
 test-python: venv venv-fab pcb-tools hostlib
 	@rc1=0; rc2=0; \
 	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -m "not realtime" $(PYTEST_ARGS) \
