@@ -12,8 +12,8 @@ from fingertip.sim.experiment import BOX_GRIP_Z_MM, run_shake, shake_table
 from fingertip.tasks.shake_pick import ShakeConfig, read_box, shake_and_pick
 from fingertip.sim.world.boxes import BOX_X_MM, make_box_world, shake_model_path
 
-TRIALS = 12
-"""Six a material, each pair in random order; `make bench` runs the paper's 56
+TRIALS = 8
+"""Four a material, each pair in random order; `make bench` runs the paper's 56
 (`shake_pick_success`, goal 53/56)."""
 
 
