@@ -77,14 +77,16 @@ class Reading:
 class FingertipSensor:
     """One attached fingertip on a compiled model: ``sensor.step()`` after each ``mj_step``.
 
-    ``materials`` maps geom names of the scene to material names (``physics.materials``), the
-    surfaces the nail slides over; other geoms sound like ``default_material``.
+    ``materials`` maps geom names of the scene to material names (``physics.materials``) or
+    :class:`Material` objects, the surfaces the nail slides over; other geoms sound like
+    ``default_material``.
     """
 
     def __init__(self, model, data, tip: AttachedFingertip, *, fidelity: str = "strain",
                  seed: int | None = 0, realism: Realism | None = None,
                  rate_sps: int = 80, batch: int = 8,
-                 materials: dict[str, str] | None = None, default_material: str = "tpu",
+                 materials: dict[str, str | Material] | None = None,
+                 default_material: str = "tpu",
                  audio_block: int = 4096, params: FingertipParams | None = None) -> None:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, not "
@@ -115,7 +117,7 @@ class FingertipSensor:
             gid = mj.mj_name2id(model, mj.mjtObj.mjOBJ_GEOM, geom)
             if gid < 0:
                 raise ValueError(f"no geom {geom!r} in the model for material {name!r}")
-            self._mat[gid] = material_named(name)
+            self._mat[gid] = name if isinstance(name, Material) else material_named(name)
         skin = load_realism().skin
         self._skin_g = np.asarray(skin.relax_fraction) if self.realism.skin else np.zeros(0)
         self._skin_tau = np.asarray(skin.relax_tau_s)
