@@ -13,8 +13,10 @@ from ...hardware.params import load as load_params
 from ...device import Frame
 from ...tasks.cups import CupConfig, unstack
 from ...tasks.grip import PinchConfig
+from ...tasks.hold import HoldConfig, hold
 from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from ...tasks.pinch import pinch
+from ..physics.grasp import HELD_OBJECTS
 from ..physics.materials import (
     CUP_WALL,
     MATERIALS,
@@ -33,8 +35,8 @@ from ..world.hand import CHIP, TOFU, unit_force_model
 
 __all__ = [
     "CHIP", "CUP_WALL", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU",
-    "AudioBlock",
-    "AudioChain", "CupConfig", "demonstrate", "FingertipParams", "Frame", "FrameSet",
+    "AudioBlock", "AudioChain", "CupConfig", "demonstrate", "HELD_OBJECTS", "hold", "HoldConfig",
+    "FingertipParams", "Frame", "FrameSet",
     "good_fft_size", "half_sine", "load_params", "load_realism", "Material", "material_named",
     "pinch", "PinchConfig", "place", "Realism", "RobotArm", "RobotHand", "unit_force_model",
     "SimulatedSource", "unstack", "VirtualStrainSensor",
