@@ -318,10 +318,13 @@ DESCRIPTION = {
                                     "pinching the tofu, two fingertips with audio, "
                                     "everything included",
                                     (">=", 10.0)),
-    "mujoco_force_rmse_n": ("force RMSE (N, vector Fx Fy) of the fingertip's calibrated force "
-                            "model against MuJoCo's contact force, pinch (0-1.2 N) and slide "
+    "mujoco_force_rmse_n": ("force RMSE (N): sqrt(mean |(Fx, Fy) estimated - (Fx, Fy) "
+                            "MuJoCo|^2) of unit 100's force model (fitted on its own "
+                            "simulated sweep) on its counts from FingertipSensor (strain, "
+                            "every error source on, tared without contact) against MuJoCo's "
+                            "contact force averaged per conversion, pinch (0-1.2 N) and slide "
                             "(2 N, coarse fabric), both on the calibrated side 0-5 mm below "
-                            "the nail tip, readings above 0.1 N", None),
+                            "the nail tip, conversions above 0.1 N; docs/mujoco.md", None),
     "mujoco_force_rmse_pinch_n": ("the same, the pinch alone", None),
     "mujoco_force_rmse_slide_n": ("the same, the slide alone", None),
     "mujoco_force_rmse_virtual_n": ("the virtual fingertip's own figure: the same unit fed "
@@ -329,7 +332,8 @@ DESCRIPTION = {
                                     "into its strain model, the same model", None),
     "mujoco_force_rmse_sweep_n": ("the same model on a later calibration sweep of its unit "
                                   "(the paper's protocol, every error source)", None),
-    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over the virtual fingertip's own",
+    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over mujoco_force_rmse_virtual_n (the "
+                                "virtual fingertip's own figure under the same loads)",
                                 ("<=", 1.1)),
     "mujoco_material_accuracy": ("the material classifier trained on today's simulated slides "
                                  "(100 per material), per window on the nail sliding over "
