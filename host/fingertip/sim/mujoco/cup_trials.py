@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .experiment import failure_modes
 from .cups import CUP_MASS, LIP_RADIUS, N_CUPS, cup_stack, lip_outer
 from .attach import geometry
 from .hand4 import FINGERS, nail_low_z, nail_radius_open
@@ -131,19 +132,15 @@ class CupRun:
     seed: int
     trials: list[dict] = field(default_factory=list)
 
-    @property
-    def success(self) -> int:
-        return sum(t["success"] for t in self.trials)
-
     def summary(self) -> dict:
-        modes: dict[str, int] = {}
-        for t in self.trials:
-            if t["failure"]:
-                modes[t["failure"]] = modes.get(t["failure"], 0) + 1
         return {"world": "mujoco", "trials": len(self.trials),
                 "counted": sum(t["counted"] for t in self.trials),
                 "lifted": sum(t["lifted_ok"] for t in self.trials),
-                "success": self.success, "failure_modes": modes}
+                "success": self.success, "failure_modes": failure_modes(self.trials)}
+
+    @property
+    def success(self) -> int:
+        return sum(t["success"] for t in self.trials)
 
 
 def run_cups(trials: int = 36, seed: int = 0,
