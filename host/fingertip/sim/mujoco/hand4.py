@@ -7,12 +7,12 @@ servoed slide joints: one closing towards the axis (0 = open, at ``OPEN_RADIUS``
 vertical (+-5 mm: the cup recipe's separation strokes). Controls 3 + 2 k and 4 + 2 k:
 finger ``fk``'s closing travel and height offset (m).
 
-Each fingertip points down with its fingernail towards the axis: the paper presses the nails
-on the box's sides to hear its contents better, and its nail finger slides its nail down the
-cups' rims. A contact on the nail loads the prism from the side opposite the one the force
-model is calibrated on (the paper's sweep: forces at 0 +- 50 degrees): there the unit's
-model reads the force low, about a quarter of MuJoCo's (a cup grip that the recipe stops at
-0.5 N squeezes with about 2 N), so the grips here are firmer than their thresholds say.
+Each fingertip points down, its end leaning 12 degrees inwards, with its fingernail towards
+the axis: the paper presses the nails on the box's sides to hear its contents better, and
+its nail finger slides its nail down the cups' rims. A contact on the nail loads the prism
+from the side opposite the one the force model is calibrated on (the paper's sweep: forces
+at 0 +- 50 degrees): there the unit's model reads 0.6-0.85 of MuJoCo's force, so the grips here are a little firmer than their
+thresholds say.
 """
 from __future__ import annotations
 
@@ -34,6 +34,10 @@ FINGER_KP = 300.0
 Z_KP = 1000.0
 """Vertical servo stiffness (N/m): a stroke moves the finger, not the finger's grip."""
 TRAVEL = 0.045
+TILT = math.radians(12.0)
+"""Each fingertip's end leans this far towards the axis, as the DeltaHand's fingers lean: a
+wall that tapers outwards going up (a cup's, 9 degrees) meets the nail, not the fingertip's
+upper part 14 mm above it, where the force model is not calibrated."""
 
 
 def angle(finger: str) -> float:
@@ -41,29 +45,36 @@ def angle(finger: str) -> float:
     return FINGERS.index(finger) * math.pi / 2
 
 
-def nail_inward_quat(theta: float) -> tuple[float, float, float, float]:
-    """Fingertip +z down, +x (the nail) towards the axis, for a finger at ``theta``."""
-    x = np.array([-math.cos(theta), -math.sin(theta), 0.0])
-    z = np.array([0.0, 0.0, -1.0])
+def nail_inward_quat(theta: float, tilt: float = TILT) -> tuple[float, float, float, float]:
+    """Fingertip +z down with its end ``tilt`` towards the axis, +x (the nail) towards the
+    axis, for a finger at ``theta``."""
+    c, s = math.cos(theta), math.sin(theta)
+    inward = np.array([-c, -s, 0.0])
+    z = -math.cos(tilt) * np.array([0.0, 0.0, 1.0]) + math.sin(tilt) * inward
+    x = math.cos(tilt) * inward + math.sin(tilt) * np.array([0.0, 0.0, 1.0])
     mat = np.column_stack([x, np.cross(z, x), z])
     q = np.zeros(4)
     mujoco().mju_mat2Quat(q, mat.reshape(-1))
     return tuple(float(v) for v in q)
 
 
+def _nail_edge() -> np.ndarray:
+    """The nail's lower inner edge in finger f0's frame (m): x outwards, z up."""
+    g = geometry()
+    out = np.zeros(3)
+    mujoco().mju_rotVecQuat(out, np.array([g.nail_x[1], 0.0, g.nail_tip_z]),
+                            np.asarray(nail_inward_quat(0.0), float))
+    return out + np.array([0.0, 0.0, -LINK_LENGTH])
+
+
 def nail_radius_open() -> float:
-    """The nail's face from the palm's axis with the finger open (m)."""
-    return OPEN_RADIUS - geometry().nail_x[1]
-
-
-def tip_low_z() -> float:
-    """The fingertip's lowest point (the skin over the cap's roof) below the palm (m)."""
-    return LINK_LENGTH + geometry().top_z
+    """The nail's lower inner edge from the palm's axis with the finger open (m)."""
+    return OPEN_RADIUS + float(_nail_edge()[0])
 
 
 def nail_low_z() -> float:
     """The nail's lower edge below the palm (m)."""
-    return LINK_LENGTH + geometry().nail_tip_z
+    return -float(_nail_edge()[2])
 
 
 def hand4_xml(world: str, extra: str = "", timestep: float = 0.002,
