@@ -11,8 +11,8 @@ Each fingertip points down, its end leaning 12 degrees inwards, with its fingern
 the axis: the paper presses the nails on the box's sides to hear its contents better, and
 its nail finger slides its nail down the cups' rims. A contact on the nail loads the prism
 from the side opposite the one the force model is calibrated on (the paper's sweep: forces
-at 0 +- 50 degrees): there the unit's model reads 0.6-0.85 of MuJoCo's force, so the grips here are a little firmer than their
-thresholds say.
+at 0 +- 50 degrees): there the unit's model reads 0.6-0.85 of MuJoCo's force, so the grips
+here are a little firmer than their thresholds say.
 """
 from __future__ import annotations
 
