@@ -25,7 +25,7 @@ from .cups import CUP_MASS, LIP_RADIUS, N_CUPS, cup_stack, lip_outer
 from .attach import geometry
 from .hand4 import FINGERS, nail_low_z, nail_radius_open
 from .project import CupConfig, unstack
-from .robot import HAND_UNIT, MujocoArm, MujocoWorld, make_hand
+from .robot import HAND_UNIT, MujocoArm, MujocoHand, MujocoWorld, make_hand
 
 log = logging.getLogger(__name__)
 
@@ -77,12 +77,10 @@ def hand_config(speed_mm_s: float) -> CupConfig:
                      patch_mm=nail, grasp_below=GRASP_BELOW)
 
 
-def cup_trial(seed: int, cfg: CupConfig | None = None) -> dict:
-    """One trial; the result as ``sim/experiment.py`` records today's world's."""
-    tr = CupTrial.draw(seed)
+def set_up(tr: CupTrial) -> tuple[MujocoWorld, MujocoHand, MujocoArm]:
+    """The trial's stack and hand, tared, the aperture set and the nails at the start."""
     scene = cup_stack(tr.pitch_mm * 1e-3, tr.cling_n, arm_z=ARM_HOME_Z)
     d = scene.data
-    cups = scene.info["cups"]
     # The nails set to reach ``overlap`` over the rims' outer edge.
     start = {f: (nail_radius_open() - lip_outer()) * 1e3 + tr.overlap_mm[f] for f in FINGERS}
     seeds = {f: HAND_UNIT + k for k, f in enumerate(FINGERS)}
@@ -91,9 +89,23 @@ def cup_trial(seed: int, cfg: CupConfig | None = None) -> dict:
     arm = MujocoArm(world)
     hand = make_hand(world, seeds)                  # tares above the stack, fully open
     hand.step(start)                                # the aperture set to the stack
-    top = float(d.xpos[cups[0]][2]) + LIP_RADIUS
-    nail0 = ARM_HOME_Z - nail_low_z()               # the nail's lower edge at arm z = 0
-    arm.move_to(0.0, 0.0, (top + tr.above_mm * 1e-3 - nail0) * 1e3)
+    top = float(d.xpos[scene.info["cups"][0]][2]) + LIP_RADIUS
+    arm.move_to(0.0, 0.0, (top + tr.above_mm * 1e-3 - nail_at_arm_zero()) * 1e3)
+    return world, hand, arm
+
+
+def nail_at_arm_zero() -> float:
+    """The nail's lower edge above the table with the arm at z = 0 (m)."""
+    return ARM_HOME_Z - nail_low_z()
+
+
+def cup_trial(seed: int, cfg: CupConfig | None = None) -> dict:
+    """One trial; the result as ``sim/experiment.py`` records today's world's."""
+    tr = CupTrial.draw(seed)
+    world, hand, arm = set_up(tr)
+    scene, d = world.scene, world.d
+    cups = scene.info["cups"]
+    nail0 = nail_at_arm_zero()
     z0 = np.array([d.xpos[c][2] for c in cups])
     lips = z0 + LIP_RADIUS                          # each rim's top (m)
     z_start = nail0 + arm.position()[2] * 1e-3
