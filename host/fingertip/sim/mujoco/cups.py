@@ -42,8 +42,6 @@ WALL_HEIGHT = 0.08
 WALL_THICK = 0.0004
 CUP_MASS = 0.004
 DISC_HALF = 0.0005
-
-
 TAPER = 0.16
 """The wall's radius lost per metre of height (9 degrees): below its lip a wall is inside the
 lower cup's lip by then, for pitches of 6.5 mm and more."""
