@@ -36,9 +36,9 @@ GAP_S = 0.05
 """Bursts merge only across the fragments of one burst: the ride (``ride_mm``) joins a
 rim's make and release, and at 15 mm/s the air between two lips lasts 0.1 s."""
 GRASP_BELOW = 0.2
-"""Of the free wall below the target rim: the onset comes 0.3-0.8 mm after the nail meets
-the lip (where the nail first touches the curved lip, and the envelope's rise), so the grasp
-aims a little above the wall's middle."""
+"""Of the free wall below the target rim: the onset comes 0.2-1.4 mm below the lip's top
+(where the nail first touches the curved lip, and the envelope's rise), so the grasp aims
+above the wall's middle."""
 
 
 @dataclass
