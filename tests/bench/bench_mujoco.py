@@ -17,6 +17,14 @@
 - ``mujoco_pinch_success`` (of 50: the paper's 25 tofu + 25 chip) on the MuJoCo gripper with
   the recipe of ``tasks/pinch.py`` unchanged, beside ``mujoco_pinch_world_success``, the same
   recipe, thresholds and seeds in today's virtual world (``sim/experiment.py``), in this run.
+- ``mujoco_cups_success`` (of the paper's 36) on the four-finger hand over five nested cups
+  with the recipe of ``tasks/cups.py`` (this hand's settings: the nail's ride over a lip,
+  the lip and nail heights), beside ``mujoco_cups_world_success``, today's world's 36 trials
+  with the same seeds, in this run.
+- ``mujoco_hold_held_fused`` / ``_none`` (of 20): the slip-reflex hold of ``tasks/hold.py``
+  on the sideways gripper, a load of 0.2-0.8 x the object's mass hung on it in 5 ms, with
+  the fused reflex and without, beside today's world's same protocol
+  (``mujoco_hold_world_held_*``).
 
 Single thread, pinned to one core where possible.
 """
@@ -33,6 +41,9 @@ import numpy as np
 from fingertip.sim import experiment as world_experiment
 from fingertip.sim.mujoco import FIDELITIES, FingertipSensor
 from fingertip.sim.mujoco import experiment as mujoco_experiment
+from fingertip.sim.mujoco.cup_trials import run_cups as run_mujoco_cups
+from fingertip.sim.mujoco.hold_trials import run_holds
+from fingertip.sim.world.slip import run_hold_trial, slip_trials
 from fingertip.sim.mujoco.drive import press_and_slide
 from fingertip.sim.mujoco.drive import run as step_scene
 from fingertip.models.force.calibration.evaluate import rmse
@@ -238,6 +249,39 @@ def pinch_figures(trials: int = 25) -> dict[str, float]:
     return out
 
 
+def cups_figures(trials: int = 36) -> dict[str, float]:
+    """The paper's cup protocol in both worlds, the same seeds (each world draws its stack,
+    speed and target from them)."""
+    mj = run_mujoco_cups(trials, 0)
+    world = world_experiment.run_cups(trials, 0)
+    s = mj.summary()
+    errors = [t["rim_height_error_mm"] for t in mj.trials if t["rim_height_error_mm"] is not None]
+    out = {"mujoco_cups_success": mj.success, "mujoco_cups_counted": s["counted"],
+           "mujoco_cups_lifted": s["lifted"],
+           "mujoco_cups_rim_error_mm_max": round(max(errors), 3) if errors else float("nan"),
+           "mujoco_cups_world_success": world.success}
+    for mode, n in s["failure_modes"].items():
+        out[f"mujoco_cups_failed_{mode.replace(' ', '_').replace('(', '').replace(')', '')}"] = n
+    return out
+
+
+HOLD_TRIALS = 20
+
+
+def hold_figures(trials: int = HOLD_TRIALS) -> dict[str, float]:
+    """Holds that kept the object (slid < 5 mm), MuJoCo and today's world, same seeds."""
+    mj = run_holds(trials, 0)
+    out: dict[str, float] = {}
+    for reflex, rs in mj.items():
+        out[f"mujoco_hold_held_{reflex}"] = sum(r["held"] for r in rs)
+        out[f"mujoco_hold_slid_mm_median_{reflex}"] = round(
+            float(np.median([r["slid_mm"] for r in rs])), 2)
+    for reflex in ("none", "fused"):
+        out[f"mujoco_hold_world_held_{reflex}"] = sum(
+            run_hold_trial(tr, reflex)["held"] for tr in slip_trials(trials, 0))
+    return out
+
+
 def run_bench() -> dict[str, float]:
     out = sensor_costs()
     out.update(force_rmse())
@@ -246,6 +290,8 @@ def run_bench() -> dict[str, float]:
     out["mujoco_realtime_factor_full"] = round(
         statistics.median(gripper_realtime_factor() for _ in range(3)), 2)
     out.update(pinch_figures())
+    out.update(cups_figures())
+    out.update(hold_figures())
     return out
 
 
@@ -272,10 +318,13 @@ DESCRIPTION = {
                                     "pinching the tofu, two fingertips with audio, "
                                     "everything included",
                                     (">=", 10.0)),
-    "mujoco_force_rmse_n": ("force RMSE (N, vector Fx Fy) of the fingertip's calibrated force "
-                            "model against MuJoCo's contact force, pinch (0-1.2 N) and slide "
+    "mujoco_force_rmse_n": ("force RMSE (N): sqrt(mean |(Fx, Fy) estimated - (Fx, Fy) "
+                            "MuJoCo|^2) of unit 100's force model (fitted on its own "
+                            "simulated sweep) on its counts from FingertipSensor (strain, "
+                            "every error source on, tared without contact) against MuJoCo's "
+                            "contact force averaged per conversion, pinch (0-1.2 N) and slide "
                             "(2 N, coarse fabric), both on the calibrated side 0-5 mm below "
-                            "the nail tip, readings above 0.1 N", None),
+                            "the nail tip, conversions above 0.1 N; docs/mujoco.md", None),
     "mujoco_force_rmse_pinch_n": ("the same, the pinch alone", None),
     "mujoco_force_rmse_slide_n": ("the same, the slide alone", None),
     "mujoco_force_rmse_virtual_n": ("the virtual fingertip's own figure: the same unit fed "
@@ -283,7 +332,8 @@ DESCRIPTION = {
                                     "into its strain model, the same model", None),
     "mujoco_force_rmse_sweep_n": ("the same model on a later calibration sweep of its unit "
                                   "(the paper's protocol, every error source)", None),
-    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over the virtual fingertip's own",
+    "mujoco_force_rmse_ratio": ("mujoco_force_rmse_n over mujoco_force_rmse_virtual_n (the "
+                                "virtual fingertip's own figure under the same loads)",
                                 ("<=", 1.1)),
     "mujoco_material_accuracy": ("the material classifier trained on today's simulated slides "
                                  "(100 per material), per window on the nail sliding over "
@@ -303,4 +353,29 @@ DESCRIPTION = {
     "mujoco_pinch_lift_mm_min_tofu": ("smallest lift of the tofu's halves when the recipe "
                                       "ends (mm; the arm was told 20)", None),
     "mujoco_pinch_lift_mm_min_chip": ("the same for the chip (mm)", None),
+    "mujoco_cups_success": ("cup trials counted and lifted on the MuJoCo four-finger hand "
+                            "over five nested cups (tasks/cups.py), of the paper's 36",
+                            None),
+    "mujoco_cups_counted": ("of those 36: the rims counted equal the rims the nail passed",
+                            None),
+    "mujoco_cups_lifted": ("of those 36: the cups lifted 10 mm or more equal the target",
+                           None),
+    "mujoco_cups_rim_error_mm_max": ("largest distance (mm) of a counted rim's height (the "
+                                     "arm's logged z at its onset) from the true lip top",
+                                     None),
+    "mujoco_cups_world_success": ("the same recipe and seeds in today's virtual world, of "
+                                  "36, in the same run", None),
+    "mujoco_hold_held_fused": ("MuJoCo holds that kept the object (slid < 5 mm) with the "
+                               "fused slip reflex (tasks/hold.py, Coulomb law), of 20: five "
+                               "objects in turn, a sudden load of 0.2-0.8 x the mass", None),
+    "mujoco_hold_held_none": ("the same without a reflex (the paper's hold), of 20", None),
+    "mujoco_hold_slid_mm_median_fused": ("median slide of the object down the fingertips "
+                                         "(mm), fused reflex", None),
+    "mujoco_hold_slid_mm_median_none": ("the same without a reflex (15 mm: back on the "
+                                        "table)", None),
+    "mujoco_hold_world_held_fused": ("today's world, the same protocol and seeds, fused "
+                                     "reflex, of 20", None),
+    "mujoco_hold_world_held_none": ("today's world, no reflex, of 20", None),
+    "mujoco_cups_failed_not_separated": ("MuJoCo cup trials that lifted more cups than the "
+                                         "target (a fit held through the strokes)", None),
 }

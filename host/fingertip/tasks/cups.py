@@ -6,7 +6,8 @@ then lift a requested number of cups and separate them from the stack.
    (:func:`~fingertip.events.vibration_onsets`: threshold, binarisation, temporal
    clustering) gives one onset per rim, and the arm's own z(t) log gives each onset's height
    (:func:`~fingertip.events.heights_at`).
-2. :func:`unstack`: move to just below the target rim (half the measured rim pitch), close
+2. :func:`unstack`: move to just below the target rim (half the measured rim pitch, or half
+   the free wall below a thick lip, the grasping patch's middle there), close
    every finger to 0.5 N with the shared :class:`~.grip.Grip`, lift while holding, then let
    two opposite fingers alternately move up and down to shear the nested fit, so that the
    cup below the held ones drops back.
@@ -43,10 +44,22 @@ class CupConfig:
     """An absolute RMS threshold instead of ``k`` (the paper's tau)."""
     gap_s: float = 0.2
     """Bursts closer than this merge into one rim (must stay below pitch / speed)."""
+    ride_mm: float | None = None
+    """An onset less than this much of the slide's travel after the previous rim's is the
+    same rim: a nail that rides over a thick rolled lip makes a burst where its lower edge
+    meets the lip and others until its upper edge leaves it (the lip's and the nail's
+    heights); must stay below the pitch. None: every merged burst is a rim."""
     tail_s: float = 0.15
     """Listening after the slide ends (the last rim's burst)."""
     grasp_below: float = 0.5
-    """Grasp this fraction of the rim pitch below the target rim."""
+    """Grasp this fraction of the free wall below the target rim (0.5: mid-way)."""
+    lip_mm: float = 0.0
+    """How far the rim's lip reaches down from where the nail meets it: the free wall
+    between two rims is ``pitch - lip_mm`` (0: a thin rim)."""
+    patch_mm: float = 0.0
+    """How far the grasping contact (the nail) reaches up from the nail's lower edge, the
+    point that meets each rim first: the grasp puts the patch's middle on the wall's
+    (0: a point)."""
     default_pitch_mm: float = 7.0
     """Pitch used when fewer than two rims were found."""
     grip: PinchConfig = field(default_factory=_cup_grip)
@@ -112,6 +125,12 @@ def count_rims(hand: RobotHand, arm: RobotArm, cfg: CupConfig) -> RimCount:
     t0, fs = blocks[0].t0, blocks[-1].fs
     events = vibration_onsets(audio, fs, k=cfg.k, threshold=cfg.threshold, gap_s=cfg.gap_s,
                               t0=t0)
+    if cfg.ride_mm is not None:
+        ride_s, kept = cfg.ride_mm / cfg.slide_speed_mm_s, []
+        for e in events:
+            if not kept or e.time - kept[-1].time >= ride_s:
+                kept.append(e)
+        events = kept
     t, z = arm.z_history(t0)
     inside = [e for e in events if t[0] <= e.time <= t[-1]]
     if len(inside) < len(events):
@@ -139,7 +158,9 @@ def unstack(hand: RobotHand, arm: RobotArm, target: int, cfg: CupConfig | None =
         return res
     pitch = rims.pitch_mm or cfg.default_pitch_mm
     x, y, _ = arm.position()
-    res.grasp_z_mm = rims.heights_mm[target - 1] - cfg.grasp_below * pitch
+    res.grasp_z_mm = rims.heights_mm[target - 1] - cfg.lip_mm \
+        - cfg.grasp_below * (pitch - cfg.lip_mm) - cfg.patch_mm / 2
+    hand.open_fully()           # a nail moving back up would catch the lips from below
     arm.move_to(x, y, res.grasp_z_mm)
     grip = Grip(hand, cfg.grip, arm=arm)
     res.grip = grip.result

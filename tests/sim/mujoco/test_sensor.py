@@ -167,6 +167,33 @@ def test_zero_slip_is_silent_after_the_touch():
     assert np.all(late == 0)  # no noise sources, no slip: nothing
 
 
+def test_the_texture_feels_the_time_averaged_force_through_a_sliding_contacts_flicker():
+    # MuJoCo separates the sliding nail from the plate for a step or two, about one step in
+    # five; the steps in contact then carry more than the load. The piezo must feel the load.
+    sc = probe(("tpu",), quat=NAIL_DOWN)
+    s = FingertipSensor(sc.model, sc.data, sc.tips["tip"], fidelity="full",
+                        materials=sc.materials)
+    pushed, touching, every = [], [], []
+    push = s.piezo.push
+
+    def record(t, slip, normal, mat, nail):
+        if t > 1.2:
+            pushed.append(normal)
+            f = s.reader.net_force @ s.reader.near_normal if s.reader.touching else 0.0
+            every.append(abs(f))
+            if s.reader.touching:
+                touching.append(abs(f))
+        push(t, slip, normal, mat, nail)
+
+    s.piezo.push = record
+    run(sc.model, sc.data, [s], 2.2, press_and_slide(press_m=0.002, slide_mm_s=20.0,
+                                                      t_press=0.6, t_slide=1.0, axis=1))
+    assert len(touching) < 0.95 * len(every)                 # it does flicker
+    assert np.mean(touching) > 1.1 * np.mean(every)          # so the touching steps carry more
+    assert np.mean(pushed) == pytest.approx(np.mean(every), rel=0.05)   # the load: 1.0 N
+    assert np.mean(pushed) == pytest.approx(1.0, rel=0.1)
+
+
 def test_conversions_follow_the_hx711_clock_not_the_physics_step():
     for dt in (0.0005, 0.0015):
         sc = probe(("tpu",), timestep=dt)

@@ -11,6 +11,7 @@ object lifted by at least 90 % of the lift.
 from __future__ import annotations
 
 import logging
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -43,14 +44,16 @@ class PinchRun:
         return sum(t["success"] for t in self.trials)
 
     def summary(self) -> dict:
-        modes: dict[str, int] = {}
-        for t in self.trials:
-            if t["failure"]:
-                modes[t["failure"]] = modes.get(t["failure"], 0) + 1
         return {"object": self.object, "world": "mujoco", "f_th_n": self.f_th_n,
                 "trials": len(self.trials), "success": self.success,
                 "broken": sum(t["broken"] for t in self.trials),
-                "dropped": sum(t["dropped"] for t in self.trials), "failure_modes": modes}
+                "dropped": sum(t["dropped"] for t in self.trials),
+                "failure_modes": failure_modes(self.trials)}
+
+
+def failure_modes(trials: list[dict]) -> dict[str, int]:
+    """How many trials failed in each way (by their ``failure``), none dropped."""
+    return dict(Counter(t["failure"] for t in trials if t["failure"]))
 
 
 def _place(world: MujocoWorld, name: str, dy: float) -> None:

@@ -11,10 +11,20 @@ from ...audio import SimulatedSource
 from ...hardware.params import FingertipParams
 from ...hardware.params import load as load_params
 from ...device import Frame
+from ...tasks.cups import CupConfig, unstack
 from ...tasks.grip import PinchConfig
+from ...tasks.hold import HoldConfig, hold
 from ...tasks.interfaces import AudioBlock, FrameSet, RobotArm, RobotHand
 from ...tasks.pinch import pinch
-from ..physics.materials import MATERIALS, PAPER_SEVEN, REF_NORMAL_N, REF_SPEED_MM_S, Material
+from ..physics.grasp import HELD_OBJECTS
+from ..physics.materials import (
+    CUP_WALL,
+    MATERIALS,
+    PAPER_SEVEN,
+    REF_NORMAL_N,
+    REF_SPEED_MM_S,
+    Material,
+)
 from ..physics.materials import material as material_named
 from ..physics.realism import Realism
 from ..physics.realism import load as load_realism
@@ -24,9 +34,10 @@ from ..world.demonstration import demonstrate
 from ..world.hand import CHIP, TOFU, unit_force_model
 
 __all__ = [
-    "CHIP", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU", "AudioBlock",
-    "AudioChain", "demonstrate", "FingertipParams", "Frame", "FrameSet",
+    "CHIP", "CUP_WALL", "MATERIALS", "PAPER_SEVEN", "REF_NORMAL_N", "REF_SPEED_MM_S", "TOFU",
+    "AudioBlock", "AudioChain", "CupConfig", "demonstrate", "HELD_OBJECTS", "hold", "HoldConfig",
+    "FingertipParams", "Frame", "FrameSet",
     "good_fft_size", "half_sine", "load_params", "load_realism", "Material", "material_named",
     "pinch", "PinchConfig", "place", "Realism", "RobotArm", "RobotHand", "unit_force_model",
-    "SimulatedSource", "VirtualStrainSensor",
+    "SimulatedSource", "unstack", "VirtualStrainSensor",
 ]

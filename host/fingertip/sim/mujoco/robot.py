@@ -32,37 +32,59 @@ ARM_ACTUATORS = (0, 1, 2)
 
 
 class MujocoWorld:
-    """A gripper scene with its sensors, the motion targets and the step loop."""
+    """A hand scene with its sensors, the motion targets and the step loop.
+
+    The scene says which actuators move what (``scene.info``): ``fingers`` (finger -> its
+    closing actuator; default the gripper's), ``finger_z`` (finger -> its vertical actuator,
+    for :meth:`MujocoZHand.step_z`), ``updates`` (callables run on the data after every
+    step: objects that break, fits that let go) and ``breakables`` (the gripper's).
+    ``fidelity`` is one level for every fingertip or one per finger (a scene's other
+    fingertips need no audio).
+    """
 
     def __init__(self, scene: Scene, unit_seeds: Mapping[str, int], *,
-                 fidelity: str = "strain", start_mm: Mapping[str, float] | None = None,
-                 **sensor_options) -> None:
+                 fidelity: str | Mapping[str, str] = "strain",
+                 start_mm: Mapping[str, float] | None = None, **sensor_options) -> None:
         self.scene = scene
         self.m, self.d = scene.model, scene.data
-        self.breakables = scene.info["breakables"]
-        self.sensors = {f: FingertipSensor(self.m, self.d, scene.tips[f], fidelity=fidelity,
+        self.fingers: dict[str, int] = dict(scene.info.get("fingers", FINGER_ACTUATOR))
+        self.finger_z: dict[str, int] = dict(scene.info.get("finger_z", {}))
+        self.travel_mm = float(scene.info.get("travel_mm", TRAVEL_MM))
+        self.breakables = scene.info.get("breakables")
+        self.updates = list(scene.info.get("updates", ()))
+        if self.breakables is not None:
+            self.updates.insert(0, self.breakables.update)
+        level = {f: fidelity if isinstance(fidelity, str) else fidelity[f]
+                 for f in self.fingers}
+        sensor_options.setdefault("materials", scene.materials)
+        self.sensors = {f: FingertipSensor(self.m, self.d, scene.tips[f], fidelity=level[f],
                                            seed=unit_seeds[f], batch=1, **sensor_options)
-                        for f in FINGER_ACTUATOR}
+                        for f in self.fingers}
         # Where each finger's travel counts from (the hand placed close to the object).
-        self.start_mm = dict(start_mm or dict.fromkeys(FINGER_ACTUATOR, 0.0))
-        self.targets_mm = dict.fromkeys(FINGER_ACTUATOR, 0.0)
-        self.speeds_mm_s = dict.fromkeys(FINGER_ACTUATOR, 0.0)
+        self.start_mm = dict(start_mm or dict.fromkeys(self.fingers, 0.0))
+        self.targets_mm = dict.fromkeys(self.fingers, 0.0)
+        self.speeds_mm_s = dict.fromkeys(self.fingers, 0.0)
+        self.z_mm = dict.fromkeys(self.finger_z, 0.0)
         self.arm_target = np.zeros(3)
+        self._arm_z = int(self.m.jnt_qposadr[self.m.actuator_trnid[ARM_ACTUATORS[2], 0]])
         self.slide: tuple[float, float] | None = None
         self.shake: tuple[float, float, float, float, float] | None = None
         self.z_log: list[tuple[float, float]] = []
+        """(time, the arm's measured height in mm): what a robot's joint encoders log."""
         self.latest: dict[str, object] = {}
         self._apply()
 
     def _apply(self) -> None:
-        for f, a in FINGER_ACTUATOR.items():
+        for f, a in self.fingers.items():
             self.d.ctrl[a] = (self.start_mm[f] + self.targets_mm[f]) * 1e-3
+        for f, a in self.finger_z.items():
+            self.d.ctrl[a] = self.z_mm[f] * 1e-3
         self.d.ctrl[list(ARM_ACTUATORS)] = self.arm_target
 
     def _motion(self, dt: float) -> None:
         for f, v in self.speeds_mm_s.items():
             if v:
-                self.targets_mm[f] = min(max(self.targets_mm[f] + v * dt, 0.0), TRAVEL_MM)
+                self.targets_mm[f] = min(max(self.targets_mm[f] + v * dt, 0.0), self.travel_mm)
         if self.slide is not None:
             target, speed = self.slide
             z = self.arm_target[2]
@@ -81,13 +103,14 @@ class MujocoWorld:
         self._apply()
 
     def step(self) -> None:
-        """One physics step with every sensor and the objects' breaking."""
+        """One physics step with every sensor and the scene's updates."""
         self._motion(self.m.opt.timestep)
         mujoco().mj_step(self.m, self.d)
         for s in self.sensors.values():
             s.step()
-        self.breakables.update(self.d)
-        self.z_log.append((self.d.time, float(self.arm_target[2] * 1e3)))
+        for update in self.updates:
+            update(self.d)
+        self.z_log.append((self.d.time, float(self.d.qpos[self._arm_z] * 1e3)))
 
     def next_readings(self) -> dict:
         """Step until every fingertip has a new conversion; the latest of each."""
@@ -103,25 +126,25 @@ class MujocoWorld:
 
 
 class MujocoHand(RobotHand):
-    """The gripper's two fingers (``left``, ``right``), one virtual fingertip each."""
+    """The scene's fingers (the gripper's ``left``, ``right``), one virtual fingertip each."""
 
     def __init__(self, world: MujocoWorld, unit_seeds: Mapping[str, int]) -> None:
         self.world = world
-        self._models = {f: unit_force_model(unit_seeds[f]) for f in FINGER_ACTUATOR}
+        self._models = {f: unit_force_model(unit_seeds[f]) for f in world.fingers}
         tares = [world.next_readings() for _ in range(TARE_CONVERSIONS)]
         self._tares = {f: np.mean([r[f].counts for r in tares], axis=0)
-                       for f in FINGER_ACTUATOR}
+                       for f in world.fingers}
         self._seq = 0
-        self._audio_t = dict.fromkeys(FINGER_ACTUATOR, world.d.time)
+        self._audio_t = dict.fromkeys(world.fingers, world.d.time)
 
     @property
     def fingers(self) -> list[str]:
-        return list(FINGER_ACTUATOR)
+        return list(self.world.fingers)
 
     def step(self, increments_mm: Mapping[str, float]) -> None:
         w = self.world
         for f, inc in increments_mm.items():
-            w.targets_mm[f] = min(max(w.targets_mm[f] + float(inc), 0.0), TRAVEL_MM)
+            w.targets_mm[f] = min(max(w.targets_mm[f] + float(inc), 0.0), w.travel_mm)
         w._apply()
 
     def move(self, speeds_mm_s: Mapping[str, float]) -> None:
@@ -152,6 +175,27 @@ class MujocoHand(RobotHand):
         out = AudioBlock(samples, float(blocks[0].fs), blocks[0].t0)
         self._audio_t[finger] = out.t_end
         return out
+
+
+class MujocoZHand(MujocoHand):
+    """A hand whose fingers also move vertically (``scene.info["finger_z"]``), as the cup
+    recipe's separation strokes need."""
+
+    Z_LIMIT_MM = 5.0
+
+    def step_z(self, increments_mm: Mapping[str, float]) -> None:
+        w = self.world
+        for f, inc in increments_mm.items():
+            if f not in w.finger_z:
+                raise ValueError(f"finger {f!r} has no vertical joint; fingers: "
+                                 f"{', '.join(w.finger_z)}")
+            w.z_mm[f] = min(max(w.z_mm[f] + float(inc), -self.Z_LIMIT_MM), self.Z_LIMIT_MM)
+        w._apply()
+
+
+def make_hand(world: MujocoWorld, unit_seeds: Mapping[str, int]) -> MujocoHand:
+    """The hand class the scene supports: with vertical finger motion when it has it."""
+    return (MujocoZHand if world.finger_z else MujocoHand)(world, unit_seeds)
 
 
 class MujocoArm(RobotArm):
