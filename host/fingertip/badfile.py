@@ -8,7 +8,7 @@ older ``except ValueError`` code still catches it); command handlers are wrapped
 :func:`reports_bad_files`, which turns it, and the operating system's refusals (no such
 file, a folder, no permission), into that one line.
 
-Imports only :mod:`fingertip.errors` (rank 0 too), so every layer may use it.
+Imports only :mod:`fingertip.errors` (rank 0), so every layer may use it.
 """
 from __future__ import annotations
 

@@ -51,6 +51,13 @@ class Error(Exception):
         if exit_code is not None:
             self.exit_code = exit_code
 
+    def add_context(self, context: str) -> Error:
+        """This error, its message led by ``context`` ("cannot calibrate from x.csv"): a
+        caller that knows more than the raiser says it without changing the error's class
+        or exit status. Returns ``self``, for ``raise e.add_context(...)``."""
+        self.args = (f"{context}: {self}",)
+        return self
+
 
 class BadFileError(Error, ValueError):
     """A file that cannot be used for what it was given for. ``path`` names it (may be None

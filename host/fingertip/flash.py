@@ -179,6 +179,8 @@ def _resolve_hex(channels: int, hex_path: str | os.PathLike | None, root: Path |
         raise FlashError(f"cannot run make: {e}") from e
     if r.returncode != 0 or not path.is_file():
         tail = "\n".join((r.stdout + r.stderr).strip().splitlines()[-15:])
+        # the command line's error is one line: make's own lines go to the log in full
+        log.warning("make's last lines:\n%s", tail)
         raise FlashError(f"building the firmware failed ({' '.join(cmd)}):\n{tail}")
     return path
 
@@ -226,6 +228,7 @@ def flash(port: str | None, channels: int = 4, hex_path: str | os.PathLike | Non
     written, verified = parse_avrdude_output(output)
     if r.returncode != 0:
         tail = "\n".join(line for line in output.strip().splitlines()[-12:])
+        log.warning("avrdude's last lines:\n%s", tail)  # the error line is one line
         raise FlashError(f"avrdude failed (exit {r.returncode}):\n{tail}", code=1)
     return FlashResult(argv, path, len(image), ran=True, bytes_written=written,
                        bytes_verified=verified, output=output)

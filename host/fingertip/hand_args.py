@@ -5,7 +5,8 @@ into four fingertips), and the fingers' microphones with ``--hand-audio``.
 Shared by every command that talks to a hand (``stream``, ``record``, ``check``,
 ``publish``): :func:`add_hand_args` adds the options, :func:`hand_from_args` builds the
 :class:`~fingertip.device.Hand`, :func:`hand_audio_from_args` the audio sources. The parsers
-raise ``ValueError`` with one line that says what is wrong; commands turn it into exit 2.
+raise :class:`~fingertip.errors.BadArgumentError` (a ValueError) with one line that says what
+is wrong: exit status 2.
 """
 from __future__ import annotations
 
@@ -14,6 +15,8 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
+
+from .errors import BadArgumentError
 
 if TYPE_CHECKING:  # the parsers stay light: `fingertip --help` loads no device code
     from .device import Hand
@@ -25,7 +28,7 @@ DEFAULT_FINGERS = ("f0", "f1", "f2", "f3", "f4", "f5", "f6", "f7")
 
 def _check_name(name: str, what: str) -> str:
     if not NAME_RE.match(name):
-        raise ValueError(f"{what}: finger name {name!r} must start with a letter and hold "
+        raise BadArgumentError(f"{what}: finger name {name!r} must start with a letter and hold "
                          "only letters, digits and _")
     return name
 
@@ -37,14 +40,14 @@ def parse_assignments(text: str, what: str = "--hand") -> dict[str, str]:
     for item in text.split(","):
         item = item.strip()
         if not item:
-            raise ValueError(f"{what}: empty entry in {text!r} (expected NAME=VALUE,...)")
+            raise BadArgumentError(f"{what}: empty entry in {text!r} (expected NAME=VALUE,...)")
         name, sep, value = item.partition("=")
         name, value = name.strip(), value.strip()
         if not sep or not value:
-            raise ValueError(f"{what}: {item!r} is not NAME=VALUE")
+            raise BadArgumentError(f"{what}: {item!r} is not NAME=VALUE")
         _check_name(name, what)
         if name in out:
-            raise ValueError(f"{what}: finger {name!r} is given twice")
+            raise BadArgumentError(f"{what}: finger {name!r} is given twice")
         out[name] = value
     return out
 
@@ -54,20 +57,20 @@ def parse_split(text: str, names: Sequence[str] | None = None) -> dict[str, tupl
     (or under ``names``). ``FxC``: F fingers of C channels, F * C <= 16."""
     m = SPLIT_RE.match(text)
     if not m:
-        raise ValueError(f"--hand-split: {text!r} is not FINGERSxCHANNELS (e.g. 4x4)")
+        raise BadArgumentError(f"--hand-split: {text!r} is not FINGERSxCHANNELS (e.g. 4x4)")
     fingers, per = int(m.group(1)), int(m.group(2))
     if fingers < 1 or per < 1 or fingers * per > 16:
-        raise ValueError(f"--hand-split: {text!r} needs 1..16 channels in all "
+        raise BadArgumentError(f"--hand-split: {text!r} needs 1..16 channels in all "
                          f"({fingers} x {per} = {fingers * per})")
     if names is None:
         if fingers > len(DEFAULT_FINGERS):
-            raise ValueError(f"--hand-split: name the {fingers} fingers with --finger-names")
+            raise BadArgumentError(f"--hand-split: name the {fingers} fingers with --finger-names")
         names = DEFAULT_FINGERS[:fingers]
     names = [_check_name(n, "--finger-names") for n in names]
     if len(names) != fingers:
-        raise ValueError(f"--finger-names: {len(names)} names for {fingers} fingers")
+        raise BadArgumentError(f"--finger-names: {len(names)} names for {fingers} fingers")
     if len(set(names)) != len(names):
-        raise ValueError("--finger-names: a name is given twice")
+        raise BadArgumentError("--finger-names: a name is given twice")
     return {n: tuple(range(k * per, (k + 1) * per)) for k, n in enumerate(names)}
 
 
@@ -132,15 +135,15 @@ def hand_spec_from_args(args: argparse.Namespace) -> HandSpec | None:
     names = parse_names(getattr(args, "finger_names", None))
     if hand is not None:
         if split is not None:
-            raise ValueError("--hand-split splits one device (--port/--serial); with --hand "
+            raise BadArgumentError("--hand-split splits one device (--port/--serial); with --hand "
                              "each finger has its own device")
         if names is not None:
-            raise ValueError("--finger-names names the --hand-split fingers; --hand names "
+            raise BadArgumentError("--finger-names names the --hand-split fingers; --hand names "
                              "its fingers itself")
         return HandSpec(ports=parse_assignments(hand))
     if split is None:
         if names is not None or getattr(args, "hand_audio", None) is not None:
-            raise ValueError("--finger-names and --hand-audio need --hand or --hand-split")
+            raise BadArgumentError("--finger-names and --hand-audio need --hand or --hand-split")
         return None
     return HandSpec(groups=parse_split(split, names), port=_one(args, "port"),
                     serial=_one(args, "serial"))
@@ -153,7 +156,7 @@ def _one(args: argparse.Namespace, what: str) -> str | None:
     if not isinstance(value, list):
         return value
     if len(value) != 1:
-        raise ValueError(f"--hand-split splits one device: give one --{what}, not "
+        raise BadArgumentError(f"--hand-split splits one device: give one --{what}, not "
                          f"{len(value)}")
     return value[0]
 
@@ -187,7 +190,7 @@ def hand_audio_inputs(args: argparse.Namespace, fingers: Sequence[str]
         per = parse_assignments(text, "--hand-audio")
         unknown = [n for n in per if n not in fingers]
         if unknown:
-            raise ValueError(f"--hand-audio: no finger named {unknown[0]!r} "
+            raise BadArgumentError(f"--hand-audio: no finger named {unknown[0]!r} "
                              f"(fingers: {', '.join(fingers)})")
         return {n: AudioInput(dev) for n, dev in per.items()}
     return {n: AudioInput(text.strip(), k, len(fingers)) for k, n in enumerate(fingers)}
@@ -207,7 +210,7 @@ def hand_audio_from_args(args: argparse.Namespace, fingers: Sequence[str], *,
                 for n, a in inputs.items()]
     src = _audio_source(first.device, first.channels, sample_rate, dtype)
     if src.channels < len(fingers):
-        raise ValueError(f"--hand-audio: {first.device} has {src.channels} channel(s) for "
+        raise BadArgumentError(f"--hand-audio: {first.device} has {src.channels} channel(s) for "
                          f"{len(fingers)} fingers")
     return [(src, list(fingers))]
 

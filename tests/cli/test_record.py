@@ -15,6 +15,7 @@ import soundfile as sf
 from fingertip.record import Recording
 from tests.children import default_signals
 from fingertip.cli.record import add_parsers, main
+from fingertip.cli.stopping import run_command
 
 logging.getLogger("fingertip").setLevel(logging.INFO)
 
@@ -26,8 +27,9 @@ def parser() -> argparse.ArgumentParser:
 
 
 def run(*argv: str) -> int:
+    """The command's exit status, its errors mapped by the command line's one mapping."""
     args = parser().parse_args(argv)
-    return args.func(args)
+    return run_command(args.func, args)
 
 
 def errors(caplog) -> list[str]:

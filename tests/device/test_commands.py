@@ -7,7 +7,8 @@ import time
 
 import pytest
 
-from fingertip import CommandFailed, CommandTimeout, Fingertip, ProtocolVersionError
+from fingertip import CommandFailed, CommandTimeout, Fingertip, NotConnected, ProtocolVersionError
+from fingertip.errors import DeviceError, exit_code
 from fingertip.protocol import ErrorCode, Info, StreamDecoder, encode
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
@@ -25,8 +26,9 @@ def test_nack_becomes_a_clear_exception(device):
 def test_silent_port_times_out_clearly(tmp_path):
     master, slave = os.openpty()
     try:
-        with pytest.raises(CommandTimeout, match="no answer from a fingertip"):
+        with pytest.raises(CommandTimeout, match="no answer from a fingertip") as e:
             Fingertip(os.ttyname(slave), open_timeout=0.6).open()
+        assert exit_code(e.value) == 2  # the port the user named: their input
     finally:
         os.close(master)
         os.close(slave)
@@ -51,8 +53,42 @@ def test_other_major_version_is_refused(tmp_path):
             return as_v2(super().receive(data))
 
     with PtyDevice(V2(4), link=tmp_path / "v2") as dev:
-        with pytest.raises(ProtocolVersionError, match="v2.0"):
+        with pytest.raises(ProtocolVersionError, match="v2.0") as e:
             Fingertip(str(dev.link)).open()
+    assert isinstance(e.value, DeviceError) and exit_code(e.value) == 2
+
+
+def test_a_device_that_stops_answering_after_open_is_a_failure_at_run_time(tmp_path):
+    class Mute(VirtualFirmware):
+        mute = False
+
+        def receive(self, data):
+            out = super().receive(data)
+            return b"" if self.mute else out
+
+    fw = Mute(4)
+    with PtyDevice(fw, link=tmp_path / "mute") as dev:
+        with Fingertip(str(dev.link), command_timeout=0.3, retries=0) as ft:
+            fw.mute = True
+            with pytest.raises(CommandTimeout, match="no answer to Ping") as e:
+                ft.ping()
+            fw.mute = False
+    assert exit_code(e.value) == 1
+
+
+def test_a_device_lost_after_it_streamed_is_a_failure_at_run_time(tmp_path):
+    with PtyDevice(VirtualFirmware(4), link=tmp_path / "gone") as dev:
+        ft = Fingertip(str(dev.link), reconnect=False).open()
+        ft.start()
+        assert ft.read(timeout=5.0) is not None
+    try:
+        deadline = time.monotonic() + 20.0
+        with pytest.raises(NotConnected, match="lost its device") as e:
+            while time.monotonic() < deadline:
+                ft.read(timeout=0.5)
+        assert exit_code(e.value) == 1
+    finally:
+        ft.close()
 
 
 @pytest.mark.realtime

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from fingertip.record import Recorder, RecorderError, Recording
+from fingertip.errors import exit_code
 from fingertip.record.sink import io_error
 
 
@@ -22,18 +23,23 @@ def test_unwritable_places_are_clear_errors(tmp_path):
         else:
             target = str(ro / "x.mcap")
         with pytest.raises(RecorderError, match="cannot create .*(Permission denied|"
-                                                "Read-only)"):
+                                                "Read-only)") as e:
             Recorder(target).start()
     finally:
         ro.chmod(0o755)
-    with pytest.raises(RecorderError, match="does not exist"):
+    refused = [e.value]
+    with pytest.raises(RecorderError, match="does not exist") as e:
         Recorder(tmp_path / "no" / "such" / "dir.mcap").start()
-    with pytest.raises(RecorderError, match="is a directory"):
+    refused.append(e.value)
+    with pytest.raises(RecorderError, match="is a directory") as e:
         Recorder(tmp_path).start()
+    refused.append(e.value)
     existing = tmp_path / "old.mcap"
     existing.write_bytes(b"keep me")
-    with pytest.raises(RecorderError, match="already exists"):
+    with pytest.raises(RecorderError, match="already exists") as e:
         Recorder(existing).start()
+    refused.append(e.value)
+    assert [exit_code(x) for x in refused] == [2, 2, 2, 2]  # the path the user gave
     assert existing.read_bytes() == b"keep me"
     Recorder(existing, overwrite=True).start().close()
     assert Recording(existing).complete
@@ -57,3 +63,11 @@ def test_io_errors_say_why():
     assert "(the folder /data does not exist)" in str(
         io_error(p, OSError(errno.ENOENT, "No such file"), "cannot create"))
     assert str(io_error(p, OSError(errno.EIO, "I/O error"), "x")) == "x /data/run.mcap: I/O error"
+
+
+def test_io_errors_carry_the_exit_status_of_their_cause():
+    p = Path("/data/run.mcap")
+    full, denied = OSError(errno.ENOSPC, "No space left"), OSError(errno.EACCES, "Denied")
+    assert exit_code(io_error(p, denied, "cannot create")) == 2  # the user's path
+    assert exit_code(io_error(p, full, "cannot create")) == 1  # a full disk: a failure
+    assert exit_code(io_error(p, denied, "writing failed:", code=1)) == 1  # after the start

@@ -12,6 +12,7 @@ import logging
 import sys
 from collections.abc import Callable
 
+from ..errors import BadArgumentError
 from ..hand_args import AudioInput, HandSpec, hand_audio_inputs
 from .guide import Guide, NoPromptGuide, PromptGuide
 from .probe import DeviceProbe
@@ -45,14 +46,14 @@ def check_hand(spec: HandSpec, args: argparse.Namespace,
     order). ValueError for bad options (a split the device cannot serve, a file as a
     microphone), device errors as the devices raise them."""
     if getattr(args, "virtual", False) or getattr(args, "fault", None):
-        raise ValueError("--virtual and --fault check one simulated fingertip, not a hand")
+        raise BadArgumentError("--virtual and --fault check one simulated fingertip, not a hand")
     inputs = {} if args.no_audio else hand_audio_inputs(args, spec.fingers)
     files = [a.device for a in inputs.values() if a.is_file]
     if files:
-        raise ValueError(f"--hand-audio: {files[0]} is a file; the check records live taps "
+        raise BadArgumentError(f"--hand-audio: {files[0]} is a file; the check records live taps "
                          "from a sound card")
     if args.audio_device is not None:
-        raise ValueError("a hand's microphones are given with --hand-audio, not "
+        raise BadArgumentError("a hand's microphones are given with --hand-audio, not "
                          "--audio-device")
     if not inputs and not args.no_audio:
         log.warning("piezos not checked: give the fingers' microphones with --hand-audio")

@@ -1,10 +1,10 @@
 """``fingertip calibrate fit|check DATASET``: fit the force calibration of one fingertip.
 
-:func:`add_parsers` adds ``calibrate`` to the top-level subparsers of ``fingertip``. Handlers
-return an exit code, as in :mod:`fingertip.cli`: 0 done; 2 a user error (bad argument,
-unreadable dataset, or data that cannot determine the model: one angle only, a dead
-channel, too many saturated rows...), reported as one clear log line with its reason code;
-1 a failure part-way (writing the outputs, training diverged, ``onnx`` missing).
+:func:`add_parsers` adds ``calibrate`` to the top-level subparsers of ``fingertip``. Exit
+status 0 done; 2 a user error (bad argument, unreadable dataset, or data that cannot
+determine the model: one angle only, a dead channel, too many saturated rows...), raised
+with its reason code for the command line's one mapping; 1 a failure part-way (writing the
+outputs, training diverged, ``onnx`` missing).
 ``python -m fingertip.cli.calibrate fit DATASET`` runs it on its own.
 """
 from __future__ import annotations
@@ -15,6 +15,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from ..errors import EXIT_FAILED, Error, ModelError
 from .argtypes import dispatch, number, parsed
 from ..badfile import reports_bad_files
 
@@ -29,8 +30,8 @@ def _load(args: argparse.Namespace):
                             max_saturated_fraction=args.max_saturated / 100)
         summary = check_dataset(data)
     except CalibrationError as e:
-        log.error("cannot calibrate from %s [%s]: %s", args.dataset, e.code, e)
-        return None, None
+        e.add_context(f"cannot calibrate from {args.dataset} [{e.code}]")
+        raise
     return data, summary
 
 
@@ -40,8 +41,6 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from ..models.force.calibrate import describe
 
     data, summary = _load(args)
-    if data is None:
-        return 2
     for w in data.warnings:
         log.warning("%s", w)
     if args.json:
@@ -63,8 +62,6 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
     check_output(args.out, force=True, what="calibration folder", folder=True)
     data, summary = _load(args)
-    if data is None:
-        return 2
     for w in data.warnings:
         log.warning("%s", w)
     if not args.quiet:
@@ -78,14 +75,13 @@ def _cmd_fit(args: argparse.Namespace) -> int:
                                  split=args.split, epochs=args.epochs, seed=args.seed,
                                  progress=None if args.quiet else progress)
     except CalibrationError as e:
-        log.error("cannot calibrate from %s [%s]: %s", args.dataset, e.code, e)
-        return 2
-    except OSError as e:
-        log.error("writing into %s failed: %s", args.out, e.strerror or e)
-        return 1
-    except (FloatingPointError, ImportError) as e:
-        log.error("%s", e)
-        return 1
+        e.add_context(f"cannot calibrate from {args.dataset} [{e.code}]")
+        raise
+    except OSError as e:  # the folder was accepted before the fit: a failure part-way
+        raise Error(f"writing into {args.out} failed: {e.strerror or e}",
+                    exit_code=EXIT_FAILED) from e
+    except (FloatingPointError, ImportError) as e:  # training diverged, onnx missing
+        raise ModelError(str(e)) from e
     if args.json:
         print(json.dumps(report.as_dict()))
         return 0

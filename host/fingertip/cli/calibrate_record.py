@@ -1,7 +1,7 @@
 """``fingertip calibrate record``: record (or load) a fingertip and a reference, join them
 by time and fit. Exit codes: 0 done; 2 bad input (no reference packets, a reference that
-never moves, a wrong CSV, clocks that cannot be aligned), one clear line, nothing fitted;
-1 a failure part-way (writing the outputs)."""
+never moves, a wrong CSV, clocks that cannot be aligned), raised as the package's errors
+for the command line's one line, nothing fitted; 1 a failure part-way (writing the outputs)."""
 from __future__ import annotations
 
 import argparse
@@ -9,6 +9,7 @@ import contextlib
 import logging
 import sys
 
+from ..errors import EXIT_FAILED, BadArgumentError, Error
 from .argtypes import number, parsed
 
 log = logging.getLogger("fingertip")
@@ -53,74 +54,66 @@ def _cmd_record(args: argparse.Namespace) -> int:
     Net F/T or Axia over RDT (--rdt), or a timestamped CSV (--reference-csv, with the
     fingertip live or from --fingertip-csv). --virtual runs it all on a virtual fingertip
     with a simulated RDT sensor on 127.0.0.1."""
-    from ..device import Fingertip, FingertipError
-    from ..network import ExtraMissing  # light: the transports import their extras lazily
-    from ..protocol import ProtocolVersionError
-    from ..reference import ReferenceError
+    from ..device import Fingertip
     from ..reference.rdt import RdtClient
-    from ..transport import DeviceNotFound, TransportError
-    from ..models.force.align import AlignmentError
     from ..models.force.calib_session import fit_run, join_csvs, record_and_join
     from ..models.force.calibrate import CalibrationError
 
     say = None if args.quiet else (lambda m: print(f"calibrate: {m}", file=sys.stderr,
                                                     flush=True))
-    try:
-        with contextlib.ExitStack() as stack:
-            if args.fingertip_csv:
-                if not args.reference_csv:
-                    log.error("--fingertip-csv needs --reference-csv")
-                    return 2
-                run = join_csvs(args.fingertip_csv, args.reference_csv,
-                                time_column=args.time_column, serial=args.device_serial or "",
-                                max_lag_s=args.max_offset)
-            else:
-                if not (args.virtual or args.port or args.serial):
-                    log.error("give the fingertip: --port, --serial or --virtual (or "
-                              "--fingertip-csv with --reference-csv)")
-                    return 2
-                begin = None
-                if args.virtual:
-                    from ..sim.device.reference_rig import virtual_rdt_rig
+    with contextlib.ExitStack() as stack:
+        if args.fingertip_csv:
+            if not args.reference_csv:
+                raise BadArgumentError("--fingertip-csv needs --reference-csv")
+            run = join_csvs(args.fingertip_csv, args.reference_csv,
+                            time_column=args.time_column, serial=args.device_serial or "",
+                            max_lag_s=args.max_offset)
+        else:
+            if not (args.virtual or args.port or args.serial):
+                raise BadArgumentError("give the fingertip: --port, --serial or --virtual (or "
+                                       "--fingertip-csv with --reference-csv)")
+            begin = None
+            if args.virtual:
+                from ..sim.device.reference_rig import virtual_rdt_rig
 
-                    port, addr, begin = stack.enter_context(virtual_rdt_rig(
-                        args.seed, args.duration, delay_s=args.sim_delay_ms / 1e3,
-                        loss=args.sim_loss / 100))
-                    args.rdt = args.rdt or _rdt_address(addr)
-                    ft = stack.enter_context(Fingertip(port))
-                    serial = f"virtual-{args.seed}"
-                else:
-                    ft = stack.enter_context(Fingertip(args.port) if args.port else
-                                             Fingertip(serial_number=args.serial))
-                    serial = args.device_serial or ft.serial_number or ""
-                if not (args.rdt or args.ros_topic):
-                    log.error("give a reference: --rdt HOST[:PORT], --ros-topic TOPIC or "
-                              "--reference-csv FILE "
-                              "(with --fingertip-csv)")
-                    return 2
-                src = _network_reference(args) if args.ros_topic else \
-                    RdtClient(args.rdt[0], args.rdt[1], counts_per_force=args.counts_per_force,
-                              counts_per_torque=args.counts_per_force)
-                run = record_and_join(ft, src, args.duration, serial=serial,
-                                      reference_csv=args.reference_csv,
-                                      max_lag_s=args.max_offset, before=begin, progress=say)
-    except (ReferenceError, AlignmentError, ExtraMissing) as e:
-        log.error("%s", e)
-        return 2
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-        log.error("%s", e)
-        return 2
+                port, addr, begin = stack.enter_context(virtual_rdt_rig(
+                    args.seed, args.duration, delay_s=args.sim_delay_ms / 1e3,
+                    loss=args.sim_loss / 100))
+                args.rdt = args.rdt or _rdt_address(addr)
+                ft = stack.enter_context(Fingertip(port))
+                serial = f"virtual-{args.seed}"
+            else:
+                ft = stack.enter_context(Fingertip(args.port) if args.port else
+                                         Fingertip(serial_number=args.serial))
+                serial = args.device_serial or ft.serial_number or ""
+            if not (args.rdt or args.ros_topic):
+                raise BadArgumentError("give a reference: --rdt HOST[:PORT], --ros-topic TOPIC "
+                                       "or --reference-csv FILE (with --fingertip-csv)")
+            src = _network_reference(args) if args.ros_topic else \
+                RdtClient(args.rdt[0], args.rdt[1], counts_per_force=args.counts_per_force,
+                          counts_per_torque=args.counts_per_force)
+            run = record_and_join(ft, src, args.duration, serial=serial,
+                                  reference_csv=args.reference_csv,
+                                  max_lag_s=args.max_offset, before=begin, progress=say)
     print(run.alignment_text())
     try:
         report = fit_run(run, args.out, models=args.models, progress=say)
     except CalibrationError as e:
-        log.error("cannot calibrate from the joined data [%s]: %s", e.code, e)
-        return 2
-    except OSError as e:
-        log.error("writing into %s failed: %s", args.out, e.strerror or e)
-        return 1
+        e.add_context(f"cannot calibrate from the joined data [{e.code}]")
+        raise
+    except OSError as e:  # the folder was accepted before the fit: a failure part-way
+        raise Error(f"writing into {args.out} failed: {e.strerror or e}",
+                    exit_code=EXIT_FAILED) from e
     print(report.chosen_text(args.out, ("joined.csv", "alignment.json")))
     return 0
+
+
+def _masses(text: str) -> list[float]:
+    """``--masses 50,100,200``: grams."""
+    try:
+        return [float(m) for m in text.split(",")]
+    except ValueError:
+        raise BadArgumentError(f"--masses: grams separated by commas, not {text!r}") from None
 
 
 def _cmd_weights(args: argparse.Namespace) -> int:
@@ -128,17 +121,15 @@ def _cmd_weights(args: argparse.Namespace) -> int:
     weight hung from its nail pulls along each direction in turn, enter each mass (at least
     three per direction, both axes), and the models are fitted on the settled readings
     (docs/bring-up.md). --virtual: the simulator hangs the weights."""
-    from ..device import Fingertip, FingertipError
-    from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
+    from ..device import Fingertip
     from ..models.force.calibrate import CalibrationError, fit_calibration
     from ..models.force.weights import DIRECTIONS, PromptWeightsGuide, record_weights
 
     dirs = [d.strip().upper() for d in args.directions.split(",")]
     bad = [d for d in dirs if d not in DIRECTIONS]
     if bad:
-        log.error("unknown direction(s) %s: use %s", ", ".join(bad), ", ".join(DIRECTIONS))
-        return 2
+        raise BadArgumentError(f"unknown direction(s) {', '.join(bad)}: use "
+                               f"{', '.join(DIRECTIONS)}")
     say = None if args.quiet else (lambda m: print(f"weights: {m}", file=sys.stderr,
                                                     flush=True))
     try:
@@ -150,7 +141,7 @@ def _cmd_weights(args: argparse.Namespace) -> int:
                 unit = VirtualUnit(args.seed)
                 dev = stack.enter_context(PtyDevice(unit.firmware, speed=args.speed))
                 ft = stack.enter_context(Fingertip(dev.port))
-                guide = SimWeightsGuide(unit, [float(m) for m in args.masses.split(",")])
+                guide = SimWeightsGuide(unit, _masses(args.masses))
                 serial = f"virtual-{args.seed}"
             else:
                 ft = stack.enter_context(Fingertip(args.port) if args.port else
@@ -164,17 +155,11 @@ def _cmd_weights(args: argparse.Namespace) -> int:
                                  extra_metadata={"device_serial": serial,
                                                  "reference": "known weights"})
     except CalibrationError as e:
-        log.error("cannot calibrate [%s]: %s", e.code, e)
-        return 2
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-        log.error("%s", e)
-        return 2
-    except ValueError as e:
-        log.error("%s", e)
-        return 2
-    except OSError as e:
-        log.error("writing into %s failed: %s", args.out, e.strerror or e)
-        return 1
+        e.add_context(f"cannot calibrate [{e.code}]")
+        raise
+    except OSError as e:  # the folder was accepted before the fit: a failure part-way
+        raise Error(f"writing into {args.out} failed: {e.strerror or e}",
+                    exit_code=EXIT_FAILED) from e
     print(report.chosen_text(args.out, how=" over whole weight steps"))
     return 0
 

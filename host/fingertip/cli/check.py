@@ -1,7 +1,7 @@
 """``fingertip check``: the bring-up check (:func:`add_parsers` adds it to ``fingertip``).
 
-Exit codes: 0 every check passed (warnings allowed), 1 a check failed, 2 a user error (no
-device on that port, a bad argument), as one clear line.
+Exit codes: 0 every check passed (warnings allowed), 1 a check failed; an error (no device
+on that port, a bad argument: 2) is raised for the command line's one mapping.
 """
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import logging
 import sys
 
 from ..check.output import finish
+from ..errors import BadArgumentError
 from ..hand_args import add_hand_args, hand_spec_from_args
 from .argtypes import number
 
@@ -53,9 +54,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
     polarity and channel mapping by guided presses, the piezo by guided taps, and the link.
     Prints a table of pass / warn / fail with a one-line fix for each failure, writes a JSON
     report, and exits 1 when something failed (docs/bring-up.md)."""
-    from ..device import Fingertip, FingertipError
-    from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
+    from ..device import Fingertip
     from ..check.guide import NoPromptGuide, PromptGuide
     from ..check.probe import DeviceProbe
     from ..check.run import run_check
@@ -67,47 +66,32 @@ def _cmd_check(args: argparse.Namespace) -> int:
     if args.plot:
         check_output(args.plot, force=True, what="picture")
     if args.fault and not args.virtual:
-        log.error("--fault needs --virtual (faults are simulated)")
-        return 2
+        raise BadArgumentError("--fault needs --virtual (faults are simulated)")
     say = None if args.quiet else (lambda m: print(f"check: {m}", file=sys.stderr, flush=True))
-    try:
-        if (hand := hand_spec_from_args(args)) is not None:
-            from ..check.hand import check_hand
+    if (hand := hand_spec_from_args(args)) is not None:
+        from ..check.hand import check_hand
 
-            return finish(args, hand.fingers, check_hand(hand, args, say), key="finger")
-    except ValueError as e:  # bad hand options
-        log.error("%s", e)
-        return 2
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-        log.error("%s", e)
-        return 2
+        return finish(args, hand.fingers, check_hand(hand, args, say), key="finger")
     targets = [("port", p) for p in args.port or []] + \
         [("serial", n) for n in args.serial or []] or [("virtual", "")]
     reports = []
     for kind, where in targets:  # a hand: one fingertip after the other
         if len(targets) > 1 and not args.quiet:
             print(f"== {where}", file=sys.stderr)
-        try:
-            with contextlib.ExitStack() as stack:
-                if kind == "virtual":
-                    port, guide, audio = stack.enter_context(_virtual(args))
-                    if args.no_prompt:
-                        guide = NoPromptGuide()
-                    ft = stack.enter_context(Fingertip(port, command_timeout=2.0))
-                    probe = DeviceProbe(ft)
-                else:
-                    ft = stack.enter_context(Fingertip(where) if kind == "port" else
-                                             Fingertip(serial_number=where))
-                    probe = DeviceProbe(ft)
-                    guide = NoPromptGuide() if args.no_prompt else PromptGuide()
-                    audio = _real_audio(args, probe)
-                report = run_check(probe, guide, audio, progress=say)
-        except ValueError as e:  # a bad --fault
-            log.error("%s", e)
-            return 2
-        except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-            log.error("%s", e)
-            return 2
+        with contextlib.ExitStack() as stack:
+            if kind == "virtual":
+                port, guide, audio = stack.enter_context(_virtual(args))
+                if args.no_prompt:
+                    guide = NoPromptGuide()
+                ft = stack.enter_context(Fingertip(port, command_timeout=2.0))
+                probe = DeviceProbe(ft)
+            else:
+                ft = stack.enter_context(Fingertip(where) if kind == "port" else
+                                         Fingertip(serial_number=where))
+                probe = DeviceProbe(ft)
+                guide = NoPromptGuide() if args.no_prompt else PromptGuide()
+                audio = _real_audio(args, probe)
+            report = run_check(probe, guide, audio, progress=say)
         if kind == "virtual":
             report.device["virtual"] = {"seed": args.seed, "faults": args.fault or []}
         reports.append(report)

@@ -1,9 +1,9 @@
 """``fingertip train material|shake FOLDER`` and ``fingertip classify material|shake MODEL``.
 
 :func:`add_parsers` adds ``train`` and ``classify`` to the top-level subparsers of
-``fingertip``. Handlers return an exit code: 0 done, 1 failed part-way, 2 a user error (bad
-folder, file, model or device), each reported as one clear log line. Heavy modules (scipy,
-onnx, onnxruntime) are imported only when a command runs.
+``fingertip``. Handlers return 0 done; an error is raised for the command line's one
+mapping (2 a user error: bad folder, file, model or device; 1 a failure part-way). Heavy
+modules (scipy, onnx, onnxruntime) are imported only when a command runs.
 ``python -m fingertip.cli.classify train material FOLDER`` runs it on its own.
 """
 from __future__ import annotations
@@ -17,7 +17,8 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from .argtypes import dispatch, number
-from ..badfile import FILE_ERRORS, reports_bad_files
+from ..badfile import reports_bad_files
+from ..errors import BadArgumentError
 
 if TYPE_CHECKING:
     from ..models.vibration.features import FeatureConfig
@@ -44,13 +45,6 @@ def _models(text: str) -> tuple[str, ...]:
         raise argparse.ArgumentTypeError(f"models are some of {','.join(CANDIDATES)}, not "
                                          f"{text!r}")
     return out
-
-
-def _user_errors():
-    from ..audio import AudioError
-    from ..models.vibration.classify import DatasetError, ModelError
-    from ..models.vibration.features import FeatureError
-    return (DatasetError, ModelError, FeatureError, AudioError, LookupError, *FILE_ERRORS)
 
 
 def _features(args: argparse.Namespace, notch: bool = True) -> FeatureConfig:
@@ -102,14 +96,10 @@ def _check_out(out: str) -> None:
 def _run_training(train: Callable[[], Any], words: Callable[[Any], list[str]],
                   as_json: bool) -> int:
     """Run one training, then print its report as JSON or in the lines ``words`` makes of
-    it, and the files written; a user error is one line and exit 2."""
+    it, and the files written (an error is raised: a user's, exit 2, is one line)."""
     from ..models.vibration.classify import json_safe
 
-    try:
-        r = train()
-    except _user_errors() as e:
-        log.error("%s", e)
-        return 2
+    r = train()
     if as_json:
         print(json.dumps(json_safe(r.report)))
         return 0
@@ -150,17 +140,14 @@ def _cmd_classify(args: argparse.Namespace) -> int:
 
     sources = [s for s in (args.file, args.audio, args.port, args.simulate) if s is not None]
     if len(sources) != 1:
-        log.error("give exactly one of FILE, --audio DEVICE, --port PORT or --simulate NAME")
-        return 2
+        raise BadArgumentError("give exactly one of FILE, --audio DEVICE, --port PORT or "
+                               "--simulate NAME")
     forces = ft = None
     if args.force_model:
         if args.port is None:
-            log.error("--force-model needs --port: the fingertip whose forces go with the "
-                      "predictions (its paired sound card is classified)")
-            return 2
+            raise BadArgumentError("--force-model needs --port: the fingertip whose forces go "
+                                   "with the predictions (its paired sound card is classified)")
         forces, ft = _open_forces(args.port, args.force_model)
-        if forces is None:
-            return 2
     try:
         clf = VibrationClassifier(args.model, kind=args.kind)
         if args.file is not None:
@@ -175,9 +162,6 @@ def _cmd_classify(args: argparse.Namespace) -> int:
         result = run_classification(clf, source, rate=args.rate, duration=args.duration,
                                     channel=args.channel, decide_at=args.decide_at,
                                     on_prediction=lambda p: _show(p, args.json, forces))
-    except _user_errors() as e:
-        log.error("%s", e)
-        return 2
     finally:
         if ft is not None:
             ft.close()
@@ -219,20 +203,15 @@ def _print_decision(result, threshold: float, as_json: bool) -> int:
 
 
 def _open_forces(port: str, path: str):
-    """The fingertip on ``port`` streaming into a force window of the model at ``path``;
-    (None, None) after logging why not."""
-    from ..device import FingertipError
+    """The fingertip on ``port`` streaming into a force window of the model at ``path``
+    (the device's errors, or a refused model, raised)."""
     from ..models.vibration.live_classify import ForceModelRefused, open_force_window
-    from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
 
     try:
         return open_force_window(port, path)
     except ForceModelRefused as e:
-        log.error("--force-model refused: %s", e)
-    except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-        log.error("%s", e)
-    return None, None
+        e.add_context("--force-model refused")
+        raise
 
 
 def _show(p, as_json: bool, forces=None) -> None:

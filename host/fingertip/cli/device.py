@@ -1,6 +1,7 @@
 """``fingertip decode | flash | devices | info | tare | stream``: one fingertip's wire bytes,
-firmware and live stream. Handlers return an exit code: 0 done, 1 errors were counted, 2 a
-user error (wrong port, file, argument), each reported as one clear log line.
+firmware and live stream. Handlers return an exit code: 0 done, 1 errors were counted; an
+error (wrong port, file, argument: 2; a failure at run time: 1) is raised for
+:func:`fingertip.cli.stopping.run_command` to report as one line.
 """
 from __future__ import annotations
 
@@ -12,12 +13,13 @@ from dataclasses import asdict
 from pathlib import Path
 
 from ..badfile import check_input
-from ..device import Fingertip, FingertipError
+from ..device import Fingertip
 from ..device.health import link_text
-from ..flash import FlashError, flash
+from ..errors import BadArgumentError, BadFileError
+from ..flash import flash
 from ..hand_args import add_hand_args, hand_spec_from_args
-from ..protocol import ProtocolVersionError, RejectedCommand, StreamDecoder, message_to_dict
-from ..transport import DeviceNotFound, TransportError, list_ports
+from ..protocol import RejectedCommand, StreamDecoder, message_to_dict
+from ..transport import list_ports
 from .argtypes import channel_list, number
 
 log = logging.getLogger("fingertip")
@@ -31,8 +33,7 @@ def _cmd_decode(args: argparse.Namespace) -> int:
             check_input(path, "capture of wire bytes")  # a FIFO would block for ever
         data = path.read_bytes() if args.file != "-" else sys.stdin.buffer.read()
     except OSError as e:
-        log.error("cannot read %s: %s", path, e.strerror or e)
-        return 2
+        raise BadFileError(f"cannot read {path}: {e.strerror or e}", path) from e
     dec = StreamDecoder(args.direction)
     shown = 0
     for item in dec.feed(data):
@@ -57,13 +58,8 @@ def _cmd_decode(args: argparse.Namespace) -> int:
 def _cmd_flash(args: argparse.Namespace) -> int:
     """Upload the firmware to an Arduino Uno with avrdude (builds the HEX if it is missing)."""
     if not args.port and not args.dry_run:
-        log.error("no serial port: pass --port (e.g. /dev/ttyACM0), or --dry-run")
-        return 2
-    try:
-        r = flash(args.port, args.channels, args.hex, dry_run=args.dry_run, baud=args.baud)
-    except FlashError as e:
-        log.error("%s", e)
-        return e.code
+        raise BadArgumentError("no serial port: pass --port (e.g. /dev/ttyACM0), or --dry-run")
+    r = flash(args.port, args.channels, args.hex, dry_run=args.dry_run, baud=args.baud)
     if not r.ran:
         print(f"dry run: {r.hex_path} holds {r.hex_bytes} bytes; avrdude has no dryrun "
               f"programmer, so it was not run. The upload would run:\n  {' '.join(r.argv)}")
@@ -100,19 +96,6 @@ def _open(args: argparse.Namespace) -> Fingertip:
     return Fingertip(args.port).open()
 
 
-def _device_errors(fn):
-    """Turn the errors a user can cause (wrong port, no device...) into one clear line."""
-    def run(args: argparse.Namespace) -> int:
-        try:
-            return fn(args)
-        except (TransportError, DeviceNotFound, FingertipError, ProtocolVersionError) as e:
-            log.error("%s", e)
-            return 2
-    run.__doc__ = fn.__doc__
-    return run
-
-
-@_device_errors
 def _cmd_info(args: argparse.Namespace) -> int:
     """Show what the device reports about itself, and its counters."""
     with _open(args) as ft:
@@ -138,7 +121,6 @@ def _cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-@_device_errors
 def _cmd_tare(args: argparse.Namespace) -> int:
     """Average readings on the device and subtract them from then on."""
     with _open(args) as ft:
@@ -147,21 +129,16 @@ def _cmd_tare(args: argparse.Namespace) -> int:
     return 0
 
 
-@_device_errors
 def _cmd_stream(args: argparse.Namespace) -> int:
     """Stream frames: a live line on a terminal, one line per frame otherwise (or JSON)."""
-    from ..stream import StreamError, StreamSettings, stream_fingertip, stream_hand
+    from ..stream import StreamSettings, stream_fingertip, stream_hand
 
     from ..outputs import check_output
 
     if args.plot_png:  # replaced every second; never a folder, FIFO or device
         check_output(args.plot_png, force=True, what="plot")
 
-    try:
-        spec = hand_spec_from_args(args)
-    except ValueError as e:
-        log.error("%s", e)
-        return 2
+    spec = hand_spec_from_args(args)
     settings = StreamSettings(
         count=args.count, duration=args.duration, json=args.json, rate=args.rate,
         decimation=args.decimation, gain=args.gain, tare=args.tare, plot=args.plot,
@@ -173,9 +150,6 @@ def _cmd_stream(args: argparse.Namespace) -> int:
         else:
             res = stream_fingertip(settings, port=args.port, serial=args.serial,
                                    out=_print_line, live=line, waiting=_print_waiting)
-    except StreamError as e:
-        log.error("%s", e)
-        return 2
     finally:
         if line is not None and line.used:
             print()  # the live line stays, the summary goes below it

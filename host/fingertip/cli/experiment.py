@@ -3,7 +3,7 @@ simulated hand, with per-trial variation, printed as the paper's results tables.
 
 :func:`add_parsers` adds ``experiment`` to the top-level subparsers of ``fingertip``.
 Handlers return 0 when the trials ran (failed trials are results, shown in the table and
-its failure modes), 2 on a user error (an unwritable ``--json`` file).
+its failure modes); a user error (an unwritable ``--json`` file) is raised: exit status 2.
 """
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import logging
 import math
 from pathlib import Path
 
+from ..errors import OutputRefused
 from .argtypes import number
 
 log = logging.getLogger("fingertip")
@@ -42,9 +43,8 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         try:
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.touch()
-        except OSError as e:
-            log.error("cannot write %s: %s", args.json, e.strerror or e)
-            return 2
+        except OSError as e:  # refused before any trial runs: the path the user gave
+            raise OutputRefused(f"cannot write {args.json}: {e.strerror or e}") from e
     objects = ("tofu", "chip") if args.object == "both" else (args.object,)
     total = n * len(objects) if args.protocol == "pinch" else n
     bar = Progress(total, f"experiment {args.protocol}", enabled=not args.quiet)

@@ -1,5 +1,7 @@
 """``fingertip publish`` and ``fingertip record --from dds|zenoh|lsl``: the command-line side
-of the network transports. Handlers return 0 done, 2 a user error (one clear line)."""
+of the network transports. Handlers return 0 done, or 1 when a recording got nothing in
+time or failed part-way; an error is raised for the command line's one mapping (2 a user
+error, 1 a failure at run time)."""
 from __future__ import annotations
 
 import argparse
@@ -8,8 +10,9 @@ import logging
 import sys
 from typing import Any
 
+from ..errors import BadArgumentError
 from ..hand_args import add_hand_args, hand_audio_from_args, hand_spec_from_args
-from ..network import TRANSPORTS, ExtraMissing
+from ..network import TRANSPORTS
 from .argtypes import number
 
 log = logging.getLogger("fingertip")
@@ -43,23 +46,17 @@ def _say(line: str) -> None:
 
 def _record_from(args: argparse.Namespace) -> int:
     """``fingertip record --from dds|zenoh|lsl``: what is published, into one MCAP file."""
-    from ..network.record_from import NetworkStartError, record_network
+    from ..network.record_from import record_network
     from ..outputs import check_output
-    from ..record.stats import RecorderError
 
     check_output(args.output, force=args.force, what="recording")  # no FIFO, no overwrite
-
-    try:
-        r = record_network(args.from_net, args.name, args.output, duration=args.duration,
-                           flush_interval=args.flush_interval,
-                           flush_bytes=args.flush_kb * 1024, compression=args.compression,
-                           overwrite=args.force, fsync=args.fsync,
-                           connect=getattr(args, "zenoh_connect", None),
-                           listen=getattr(args, "zenoh_listen", None),
-                           wait_timeout=args.wait_timeout, say=_say)
-    except (ExtraMissing, ValueError, RecorderError, NetworkStartError) as e:
-        log.error("%s", e)
-        return 2
+    r = record_network(args.from_net, args.name, args.output, duration=args.duration,
+                       flush_interval=args.flush_interval,
+                       flush_bytes=args.flush_kb * 1024, compression=args.compression,
+                       overwrite=args.force, fsync=args.fsync,
+                       connect=getattr(args, "zenoh_connect", None),
+                       listen=getattr(args, "zenoh_listen", None),
+                       wait_timeout=args.wait_timeout, say=_say)
     if r.timed_out is not None and not r.written:
         log.error("%s", r.timed_out)
         return 1
@@ -78,69 +75,47 @@ def _record_from(args: argparse.Namespace) -> int:
 def _cmd_publish(args: argparse.Namespace) -> int:
     """Publish fingertips live on the network: ROS 2 topics /fingertip/NAME/raw|wrench|
     audio|events|info over DDS (default) or Zenoh, or Lab Streaming Layer outlets."""
-    from ..audio import AudioError
-    from ..device import FingertipError
     from ..network import publish_sources as ps
     from ..network.hand import hand_conflict
     from ..network.publish import PublishSettings, publish
-    from ..protocol import ProtocolVersionError
-    from ..record.recorder import Recorder, RecorderError
-    from ..transport import DeviceNotFound, TransportError
+    from ..record.recorder import Recorder
 
     if args.record:
         from ..outputs import check_output
 
         check_output(args.record, force=args.force, what="recording")
-    try:
-        hand = hand_spec_from_args(args)
-        if (why := hand_conflict(args, hand)) is not None:
-            raise ValueError(why)
-    except ValueError as e:
-        log.error("%s", e)
-        return 2
+    hand = hand_spec_from_args(args)
+    if (why := hand_conflict(args, hand)) is not None:
+        raise BadArgumentError(why)
     if (args.material_model or args.shake_model) and not (
             args.audio or args.audio_file or args.virtual_audio):
-        log.error("--material-model and --shake-model classify the microphone: add --audio, "
-                  "--audio-file or --virtual-audio")
-        return 2
-    try:
-        from .record import load_force_model
+        raise BadArgumentError("--material-model and --shake-model classify the microphone: "
+                               "add --audio, --audio-file or --virtual-audio")
+    from .record import load_force_model
 
-        force_model = load_force_model(args.force_model) if args.force_model else None
-        classifiers = ps.load_classifiers(args.material_model, args.shake_model)
-    except (ValueError, OSError) as e:
-        log.error("%s", e)
-        return 2
+    force_model = load_force_model(args.force_model) if args.force_model else None
+    classifiers = ps.load_classifiers(args.material_model, args.shake_model)
     with contextlib.ExitStack() as stack:
-        try:
-            transport = ps.make_transport(args.transport, args.zenoh_connect,
-                                          args.zenoh_listen)
-            stack.callback(transport.close)
-            sources = _open_sources(args, stack, hand)
-            if args.force_model and args.force_model.lower().endswith(".onnx"):
-                force_model = ps.checked_force_model(args.force_model, sources, force_model)
-            names = ([s.name for s in sources] if args.replay or hand else
-                     ps.publish_names(args.name, len(sources)))
-            audio = ps.audio_source(args.audio, args.audio_file, args.virtual_audio,
-                                    args.audio_rate, args.port)
-            hand_audio = [] if hand is None else hand_audio_from_args(
-                args, names, sample_rate=args.audio_rate)
-            rec = None
-            if args.record:
-                rec = Recorder(args.record, overwrite=args.force).start()
-                stack.callback(rec.close)
-        except (ExtraMissing, ValueError, LookupError, TransportError, DeviceNotFound,
-                FingertipError, ProtocolVersionError, AudioError, RecorderError, OSError) as e:
-            log.error("%s", e)
-            return 2
-        except Exception as e:  # DdsError, ZenohError, LSL: the network could not start
-            log.error("%s", e)
-            return 2
+        transport = ps.make_transport(args.transport, args.zenoh_connect, args.zenoh_listen)
+        stack.callback(transport.close)
+        sources = _open_sources(args, stack, hand)
+        if args.force_model and args.force_model.lower().endswith(".onnx"):
+            force_model = ps.checked_force_model(args.force_model, sources, force_model)
+        names = ([s.name for s in sources] if args.replay or hand else
+                 ps.publish_names(args.name, len(sources)))
+        audio = ps.audio_source(args.audio, args.audio_file, args.virtual_audio,
+                                args.audio_rate, args.port)
+        hand_audio = [] if hand is None else hand_audio_from_args(
+            args, names, sample_rate=args.audio_rate)
+        rec = None
+        if args.record:
+            rec = Recorder(args.record, overwrite=args.force).start()
+            stack.callback(rec.close)
         timebase = rec.timebase if rec is not None else None
         if args.sim_time:
             if not args.replay:
-                log.error("--sim-time goes with --replay (a live device runs on ROS time)")
-                return 2
+                raise BadArgumentError("--sim-time goes with --replay (a live device runs on "
+                                       "ROS time)")
             timebase = sources[0].recording.timebase  # the recording's own stamps
         settings = PublishSettings(
             transport_name=args.transport, duration=args.duration, replay=bool(args.replay),
@@ -148,13 +123,9 @@ def _cmd_publish(args: argparse.Namespace) -> int:
             service_tare_samples=args.service_tare_samples,
             wait_subscribers=args.wait_subscribers, wait_timeout=args.wait_timeout,
             linger=args.linger, audio_rate=args.audio_rate)
-        try:
-            publish(transport, sources, names, settings=settings, force_model=force_model,
-                    classifiers=classifiers, audio=audio, hand_audio=hand_audio, rec=rec,
-                    timebase=timebase, say=_say)
-        except (FingertipError, AudioError) as e:
-            log.error("%s", e)
-            return 2
+        publish(transport, sources, names, settings=settings, force_model=force_model,
+                classifiers=classifiers, audio=audio, hand_audio=hand_audio, rec=rec,
+                timebase=timebase, say=_say)
     return 0
 
 

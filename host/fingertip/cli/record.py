@@ -1,8 +1,9 @@
 """``fingertip record | replay | export``: the command-line side of recordings.
 
 :func:`add_parsers` adds the three subcommands to the ``fingertip`` command's subparsers.
-Handlers return an exit code: 0 done, 1 the recording failed part-way (disk full...),
-2 a user error (wrong port, file, argument), each reported as one clear log line.
+Handlers return 0 done, or 1 when the recording failed part-way and kept what it had; an
+error is raised for the command line's one mapping (2 a user error: wrong port, file,
+argument; 1 a failure at run time).
 ``python -m fingertip.cli.record`` runs these on their own.
 """
 from __future__ import annotations
@@ -17,7 +18,7 @@ from functools import partial
 from pathlib import Path
 
 from ..badfile import reports_bad_files
-from ..errors import exit_code
+from ..errors import BadArgumentError, Error, exit_code
 from ..hand_args import add_hand_args, hand_spec_from_args
 from .argtypes import dispatch, number
 
@@ -33,19 +34,19 @@ def load_force_model(spec: str):
         return ForceModel(spec)  # a bad file raises BadFileError (a ValueError)
     mod_name, sep, attr = spec.partition(":")
     if not sep or not mod_name or not attr:
-        raise ValueError(f"--force-model must be a FILE.onnx or look like "
+        raise BadArgumentError(f"--force-model must be a FILE.onnx or look like "
                          f"package.module:function, not {spec!r}")
     try:
         mod = importlib.import_module(mod_name)
     except ImportError as e:
-        raise ValueError(f"cannot import force model module {mod_name!r}: {e}") from e
+        raise BadArgumentError(f"cannot import force model module {mod_name!r}: {e}") from e
     fn = mod
     for part in attr.split("."):
         fn = getattr(fn, part, None)
         if fn is None:
-            raise ValueError(f"{mod_name} has no {attr!r}")
+            raise BadArgumentError(f"{mod_name} has no {attr!r}")
     if not callable(fn):
-        raise ValueError(f"{spec} is not callable")
+        raise BadArgumentError(f"{spec} is not callable")
     return fn
 
 
@@ -55,76 +56,48 @@ def load_force_model(spec: str):
 def _cmd_record(args: argparse.Namespace) -> int:
     """Record a fingertip (frames, forces, audio, events) into an MCAP file of ROS 2
     messages, until --duration passes or Ctrl-C."""
-    from ..audio import AudioError
-    from ..device import FingertipError
     from ..hand_args import hand_audio_from_args
-    from ..protocol import ProtocolVersionError
-    from ..transport import DeviceNotFound, TransportError
-    from ..record.stats import RecorderError
     from ..record.schemas import check_name
-    from ..record.session import (
-        RecordSettings,
-        SessionError,
-        check_output,
-        open_audio,
-        record_fingertip,
-    )
+    from ..record.session import RecordSettings, check_output, open_audio, record_fingertip
 
     out = Path(args.output)
     if getattr(args, "from_net", None):  # `fingertip record` hands --from to the network
-        log.error("record --from is part of the `fingertip` command: run `fingertip record "
-                  "--from %s ...`", args.from_net)
-        return 2
+        raise BadArgumentError(f"record --from is part of the `fingertip` command: run "
+                               f"`fingertip record --from {args.from_net} ...`")
     if getattr(args, "wait_timeout", None) is not None:
-        log.error("--wait-timeout is for record --from dds|zenoh|lsl (a device that goes "
-                  "away is reported while it is gone)")
-        return 2
-    try:
-        check_name(args.name)
-        onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
-                                           or Path(args.force_model).is_file())
-        # An ONNX model is read here, before any device is opened, so a bad file is
-        # refused at once; it is checked against the fingertip once that is open.
-        force_model = load_force_model(args.force_model) if args.force_model else None
-        check_output(out, args.force, inputs=[f for f in (args.audio_file, args.force_model)
-                                              if f and Path(f).exists()])
-        spec = hand_spec_from_args(args)
-        if spec is not None and (args.audio is not None or args.audio_file):
-            raise ValueError("a hand's microphones are given with --hand-audio")
-        audio = (hand_audio_from_args(args, spec.fingers, sample_rate=args.audio_rate,
-                                      dtype=args.audio_dtype) if spec is not None else
-                 open_audio(args.audio, args.audio_file, rate=args.audio_rate,
-                            channels=args.audio_channels, dtype=args.audio_dtype))
-    except (SessionError, AudioError, ValueError) as e:
-        log.error("%s", e)
-        return 2
+        raise BadArgumentError("--wait-timeout is for record --from dds|zenoh|lsl (a device "
+                               "that goes away is reported while it is gone)")
+    check_name(args.name)
+    onnx = bool(args.force_model) and (args.force_model.endswith(".onnx")
+                                       or Path(args.force_model).is_file())
+    # An ONNX model is read here, before any device is opened, so a bad file is
+    # refused at once; it is checked against the fingertip once that is open.
+    force_model = load_force_model(args.force_model) if args.force_model else None
+    check_output(out, args.force, inputs=[f for f in (args.audio_file, args.force_model)
+                                          if f and Path(f).exists()])
+    spec = hand_spec_from_args(args)
+    if spec is not None and (args.audio is not None or args.audio_file):
+        raise BadArgumentError("a hand's microphones are given with --hand-audio")
+    audio = (hand_audio_from_args(args, spec.fingers, sample_rate=args.audio_rate,
+                                  dtype=args.audio_dtype) if spec is not None else
+             open_audio(args.audio, args.audio_file, rate=args.audio_rate,
+                        channels=args.audio_channels, dtype=args.audio_dtype))
     settings = RecordSettings(out, name=args.name, duration=args.duration, tare=args.tare,
                               flush_interval=args.flush_interval, flush_kb=args.flush_kb,
                               compression=args.compression, overwrite=args.force,
                               fsync=args.fsync)
     say = partial(print, file=sys.stderr, flush=True)
     live = spec is None and sys.stderr.isatty()
-    errors = (SessionError, RecorderError, AudioError, TransportError, DeviceNotFound,
-              FingertipError, ProtocolVersionError)
-    try:
-        if spec is not None:
-            from ..record.hand_record import record_hand
+    if spec is not None:
+        from ..record.hand_record import record_hand
 
-            res = record_hand(settings, spec, audio, force_model, say=say)
-        else:
-            res = record_fingertip(
-                settings, port=args.port, serial=args.serial, audio=audio,
-                force_model=force_model, model_for=_model_check(args.force_model) if onnx
-                else None, say=say,
-                status=_overwrite_line if live else None)
-    except errors as e:
-        log.error("%s", e)
-        return 2
-    except ValueError as e:  # a hand split naming channels its device does not have
-        if spec is None:
-            raise
-        log.error("%s", e)
-        return 2
+        res = record_hand(settings, spec, audio, force_model, say=say)
+    else:
+        res = record_fingertip(
+            settings, port=args.port, serial=args.serial, audio=audio,
+            force_model=force_model, model_for=_model_check(args.force_model) if onnx
+            else None, say=say,
+            status=_overwrite_line if live else None)
     if live:
         print(file=sys.stderr)
     print(res.text(), file=sys.stderr)
@@ -159,16 +132,10 @@ def _model_check(path: str):
 def _cmd_replay(args: argparse.Namespace) -> int:
     """Play a recording through the same frame interface as a live device and print its
     frames as `fingertip stream` does."""
-    from ..record.reader import RecordingError
     from ..record.replay import Replay
     from ..stream.text import frame_json, frame_line
 
-    try:
-        rp = Replay(args.file, args.name,
-                    speed=None if args.as_fast_as_possible else args.speed)
-    except (RecordingError, ValueError) as e:
-        log.error("%s", e)
-        return 2
+    rp = Replay(args.file, args.name, speed=None if args.as_fast_as_possible else args.speed)
     n = 0
     try:
         with rp:
@@ -198,14 +165,9 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def _cmd_export(args: argparse.Namespace) -> int:
     """Write a recording's frames (CSV per fingertip), audio (WAV per stream) and events
     (CSV) into a folder."""
-    from ..record.export import ExportError, export
-    from ..record.reader import RecordingError
+    from ..record.export import export
 
-    try:
-        res = export(args.file, args.output, overwrite=args.force)
-    except (RecordingError, ExportError) as e:
-        log.error("%s", e)
-        return 2
+    res = export(args.file, args.output, overwrite=args.force)
     for p in res.files:
         print(p)
     parts = [f"{n}: {c} frames" for n, c in res.frames.items()]
@@ -234,8 +196,7 @@ def _cmd_repair(args: argparse.Namespace) -> int:
     except OSError as e:
         if exit_code(e) == 2:  # the user's path: no such folder, no permission
             raise
-        log.error("cannot write %s: %s", args.output or "the copy", e.strerror or e)
-        return 1
+        raise Error(f"cannot write {args.output or 'the copy'}: {e.strerror or e}") from e
     if args.json:
         print(json.dumps(res.as_dict()))
     print(f"repaired {res.source} -> {res.output}: {res.summary()}", file=sys.stderr)

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from .argtypes import dispatch, number
 from ..badfile import reports_bad_files
+from ..errors import BadArgumentError
 from ..sim.device.faults import FAULTS
 
 log = logging.getLogger("fingertip")
@@ -31,13 +32,8 @@ def _cmd_sim_device(args: argparse.Namespace) -> int:
         from ..sim.device.faults import parse_faults
 
         if args.channels != 4:
-            log.error("--fault needs the 4-channel fingertip")
-            return 2
-        try:
-            fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware
-        except ValueError as e:
-            log.error("%s", e)
-            return 2
+            raise BadArgumentError("--fault needs the 4-channel fingertip")
+        fw = VirtualUnit(args.seed, parse_faults(args.fault)).firmware  # BadArgumentError
     else:
         scene = Idle(duration=1e9)
         source = VirtualStrainSensor(args.seed).as_source(scene)
@@ -76,8 +72,7 @@ def _cmd_sim_mujoco(args: argparse.Namespace) -> int:
     from ..sim import VirtualFirmware
 
     if args.scene not in SCENES:
-        log.error("unknown scene %r: one of %s", args.scene, ", ".join(SCENES))
-        return 2
+        raise BadArgumentError(f"unknown scene {args.scene!r}: one of {', '.join(SCENES)}")
     if args.render or args.view:
         from ..sim.mujoco.render import render_run, view
 

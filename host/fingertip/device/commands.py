@@ -16,7 +16,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 
-from ..errors import BadArgumentError, BadArgumentTypeError
+from ..errors import EXIT_FAILED, BadArgumentError, BadArgumentTypeError
 from ..protocol import (
     INT24_MAX, INT24_MIN, MAX_CHANNELS, VALID_GAINS, VALID_RATES, Ack, Command, ForeignInfo,
     GetInfo, GetStats, Info, Nack, Ping, ProtocolVersionError, ResetCounters, SetGain,
@@ -204,8 +204,9 @@ class DeviceCommands:
                     pass  # the reader notices the loss and reconnects; the retry goes out then
                 if pending.done.wait(timeout):
                     res = pending.result
-                    if res is None:
-                        raise NotConnected(f"{self.name}: closed while waiting for {name}")
+                    if res is None:  # the device went away after it had answered: exit 1
+                        raise NotConnected(f"{self.name}: closed while waiting for {name}",
+                                           exit_code=EXIT_FAILED)
                     if isinstance(res, Nack):
                         raise CommandFailed(name, res.error)
                     return pending.replies
@@ -216,8 +217,10 @@ class DeviceCommands:
             with self._pending_lock:
                 if pending in self._pending:
                     self._pending.remove(pending)
+        # An open device that stops answering fails at run time (exit status 1); the
+        # handshake turns its own timeout into "no fingertip on this port" (2).
         raise CommandTimeout(f"{self.name}: no answer to {name} within {timeout:.2f} s "
-                             f"({retries + 1} attempts)")
+                             f"({retries + 1} attempts)", exit_code=EXIT_FAILED)
 
     def _fail_pending(self) -> None:
         with self._pending_lock:

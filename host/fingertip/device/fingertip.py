@@ -22,7 +22,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterator
 
-from ..errors import BadArgumentError
+from ..errors import EXIT_FAILED, BadArgumentError
 from ..protocol import (
     Ack, ForeignInfo, GetInfo, GetStats, Info, Log, Nack, Sample, Stats, StreamDecoder,
 )
@@ -229,9 +229,10 @@ class Fingertip(DeviceCommands, PortLink, SetupRestore, FrameSource):
 
     def _not_open(self) -> NotConnected:
         """Why nothing can be read or sent now, as the exception to raise."""
-        if self._lost_for_good:
-            why = "lost its device and reconnect is off: open() it again"
-        elif self._ever_opened:
+        if self._lost_for_good:  # it was streaming, then failed: a failure at run time
+            return NotConnected(f"{self.name} lost its device and reconnect is off: open() it "
+                                "again", exit_code=EXIT_FAILED)
+        if self._ever_opened:
             why = "is closed: open() it again to use it"
         else:
             why = "was never opened: call open() first (or use `with Fingertip(...)`)"

@@ -11,6 +11,7 @@ from collections import deque
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 
+from ..errors import BadArgumentError
 from ..protocol import MAX_CHANNELS
 from .errors import FingertipError, NotConnected, check_tare_samples
 from .fingertip import Fingertip
@@ -33,7 +34,7 @@ class Hand:
     def __init__(self, fingers: Mapping[str, Fingertip | tuple[Fingertip, Sequence[int]]],
                  queue_size: int = 16384) -> None:
         if not fingers:
-            raise ValueError("a hand needs at least one finger")
+            raise BadArgumentError("a hand needs at least one finger")
         self._fingers: dict[str, tuple[Fingertip, tuple[int, ...] | None]] = {}
         for name, spec in fingers.items():
             if isinstance(spec, Fingertip):
@@ -136,7 +137,7 @@ class Hand:
                 if chans is not None and max(chans) >= dev.channels:
                     need = max(max(c) for d, c in self._fingers.values()
                                if d is dev and c is not None) + 1
-                    raise ValueError(
+                    raise BadArgumentError(
                         f"finger {name!r} uses channel {max(chans)}, but {dev.name} has "
                         f"{dev.channels} (0..{dev.channels - 1}): this hand needs {need} "
                         f"channels on it (flash the {need}-channel firmware: "
@@ -226,12 +227,13 @@ class Hand:
 def _channels(finger: str, chans: Sequence[int]) -> tuple[int, ...]:
     out = tuple(chans)
     if not out:
-        raise ValueError(f"finger {finger!r} has no channels")
+        raise BadArgumentError(f"finger {finger!r} has no channels")
     for c in out:
         if isinstance(c, bool) or not isinstance(c, int) or not 0 <= c < MAX_CHANNELS:
-            raise ValueError(f"finger {finger!r}: channel {c!r} is not in 0..{MAX_CHANNELS - 1}")
+            raise BadArgumentError(f"finger {finger!r}: channel {c!r} is not in "
+                                   f"0..{MAX_CHANNELS - 1}")
     if len(set(out)) != len(out):
-        raise ValueError(f"finger {finger!r} lists a channel twice: {out}")
+        raise BadArgumentError(f"finger {finger!r} lists a channel twice: {out}")
     return out
 
 
@@ -245,16 +247,16 @@ def _check_sharing(fingers: Mapping[str, tuple[Fingertip, tuple[int, ...] | None
             other = whole.get(key) or next((f for (k, _), f in owner.items() if k == key),
                                            None)
             if other is not None:
-                raise ValueError(f"fingers {other!r} and {name!r} share one device: give "
+                raise BadArgumentError(f"fingers {other!r} and {name!r} share one device: give "
                                  f"each its channels (Hand.split)")
             whole[key] = name
             continue
         if key in whole:
-            raise ValueError(f"fingers {whole[key]!r} and {name!r} share one device: give "
+            raise BadArgumentError(f"fingers {whole[key]!r} and {name!r} share one device: give "
                              f"each its channels (Hand.split)")
         for c in chans:
             if (key, c) in owner:
-                raise ValueError(f"channel {c} is given to both {owner[(key, c)]!r} and "
+                raise BadArgumentError(f"channel {c} is given to both {owner[(key, c)]!r} and "
                                  f"{name!r}")
             owner[(key, c)] = name
 

@@ -10,12 +10,16 @@ from __future__ import annotations
 
 import os
 
+from ..errors import EXIT_USAGE, DeviceError
 from ..audio import AudioDeviceNotFound, alsa_cards, find_alsa_card, usb_hub_of
 from ..transport import PortInfo, list_ports
 
 
-class PairingError(LookupError):
-    """No sound card, or several, could be paired with the port."""
+class PairingError(DeviceError, LookupError):
+    """No sound card, or several, could be paired with the port (the user's set-up: exit
+    status 2; give the sound card explicitly)."""
+
+    exit_code = EXIT_USAGE
 
 
 def sound_card_for(port: PortInfo, *, card_serial: str | None = None,

@@ -32,7 +32,7 @@ from xml.sax.saxutils import escape
 from . import require
 from .ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE, dds_type_name, idl_struct, user_data
 from .trigger import ServiceStats, TriggerServer, trigger_response_cdr
-from ..errors import NetworkError
+from ..errors import EXIT_USAGE, NetworkError
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +60,8 @@ _REQ_ID = {b"\x00\x01": struct.Struct("<Qq"), b"\x00\x00": struct.Struct(">Qq")}
 
 
 class DdsError(NetworkError):
-    """DDS could not start (bad domain id, configuration...): a
+    """DDS could not start (bad domain id, configuration...: the user's settings, exit
+    status 2) or failed while running (exit status 1): a
     :class:`~fingertip.errors.NetworkError`, a RuntimeError."""
 
 
@@ -81,7 +82,7 @@ def discovery_config(env: Mapping[str, str] | None = None) -> str | None:
     scope = scope or "SUBNET"
     if scope not in ("SUBNET", "LOCALHOST", "OFF", "SYSTEM_DEFAULT"):
         raise DdsError(f"ROS_AUTOMATIC_DISCOVERY_RANGE={scope!r}: use SUBNET, LOCALHOST, OFF "
-                       "or SYSTEM_DEFAULT")
+                       "or SYSTEM_DEFAULT", exit_code=EXIT_USAGE)
     peers = [p.strip() for p in env.get("ROS_STATIC_PEERS", "").split(";") if p.strip()]
     if scope in ("SUBNET", "SYSTEM_DEFAULT") and not peers:
         return None
@@ -107,9 +108,10 @@ def domain_id(env: Mapping[str, str] | None = None) -> int:
     try:
         d = int(raw)
     except ValueError:
-        raise DdsError(f"ROS_DOMAIN_ID={raw!r} is not a number (0-232)") from None
+        raise DdsError(f"ROS_DOMAIN_ID={raw!r} is not a number (0-232)",
+                       exit_code=EXIT_USAGE) from None
     if not 0 <= d <= 232:
-        raise DdsError(f"ROS_DOMAIN_ID={d} is out of range (0-232)")
+        raise DdsError(f"ROS_DOMAIN_ID={d} is out of range (0-232)", exit_code=EXIT_USAGE)
     return d
 
 
@@ -138,7 +140,9 @@ class DdsNode:
             self.participant = DomainParticipant(
                 self.domain_id, qos=Qos(Policy.Userdata(b"enclave=/;")))
         except Exception as e:
-            raise DdsError(f"cannot start DDS on domain {self.domain_id}: {e}") from e
+            # the settings the user gave (domain, discovery, CYCLONEDDS_URI): exit 2
+            raise DdsError(f"cannot start DDS on domain {self.domain_id}: {e}",
+                           exit_code=EXIT_USAGE) from e
         self._topics: dict[str, object] = {}
         self._writers: list = []
         self._reader_entities: list = []

@@ -12,6 +12,7 @@ from typing import Any
 from ..audio import AudioSource, FileSource, SimulatedSource, SoundDeviceSource
 from ..device import Fingertip, SharedReader
 from ..device.finger import FingerView
+from ..errors import BadArgumentError
 from ..hand_args import HandSpec
 from ..models.force.force_load import check_model, device_serial, force_model_for
 from . import TRANSPORTS
@@ -25,7 +26,7 @@ def make_transport(kind: str, zenoh_connect: Sequence[str] | None = None,
     started; its library is imported only here (a missing extra raises
     :class:`~fingertip.network.ExtraMissing`)."""
     if kind not in TRANSPORTS:
-        raise ValueError(f"--transport is one of {', '.join(TRANSPORTS)}, not {kind!r}")
+        raise BadArgumentError(f"--transport is one of {', '.join(TRANSPORTS)}, not {kind!r}")
     if kind == "dds":
         from .dds import DdsTransport
 
@@ -42,7 +43,7 @@ def make_transport(kind: str, zenoh_connect: Sequence[str] | None = None,
 def publish_names(name: str | None, n: int) -> list[str]:
     """``--name`` (comma-separated) -> one checked topic name per fingertip; by default
     ``fingertip`` for one, ``finger0, finger1...`` for several. ValueError when the count
-    or a name is wrong."""
+    or a name is wrong (a BadArgumentError)."""
     from ..record.schemas import check_name
 
     if name is not None:  # an empty --name is refused by check_name, not taken as none
@@ -50,9 +51,9 @@ def publish_names(name: str | None, n: int) -> list[str]:
     else:
         names = ["fingertip"] if n == 1 else [f"finger{i}" for i in range(n)]
     if len(names) != n:
-        raise ValueError(f"--name lists {len(names)} names for {n} fingertips")
+        raise BadArgumentError(f"--name lists {len(names)} names for {n} fingertips")
     if len(set(names)) != n:
-        raise ValueError("--name: every fingertip needs its own name")
+        raise BadArgumentError("--name: every fingertip needs its own name")
     return [check_name(s) for s in names]
 
 
@@ -98,7 +99,7 @@ def audio_source(audio: str | None, audio_file: str | None, virtual_audio: bool,
             from ..device.pairing import sound_card_for_port
 
             if not ports:
-                raise ValueError("--audio paired needs --port (the sound card is found "
+                raise BadArgumentError("--audio paired needs --port (the sound card is found "
                                  "next to it on the USB hub)")
             dev: int | str = sound_card_for_port(ports[0])
         else:

@@ -33,6 +33,7 @@ import threading
 import time
 from collections.abc import Callable
 
+from ..errors import EXIT_USAGE, NetworkError
 from ..record import schemas as S
 from . import require
 from .dds import MAX_REQUEST_BYTES, domain_id
@@ -99,22 +100,22 @@ class ZenohNode:
         self.z = require("zenoh", "ROS 2 over Zenoh (--transport zenoh)")
         import json
 
-        conf = self.z.Config()
-        conf.insert_json5("mode", '"peer"')
-        if connect:
-            conf.insert_json5("connect/endpoints", json.dumps(connect))
-            # A router or peer that is not up yet (or restarts) is found again within a
-            # second, not after Zenoh's default back-off of up to 4 s.
-            conf.insert_json5("connect/retry", '{"period_init_ms": 200, "period_max_ms": '
-                                               '1000, "period_increase_factor": 1.5}')
-        if listen:
-            conf.insert_json5("listen/endpoints", json.dumps(listen))
-        if connect or listen:  # explicit endpoints: no need to shout on the network
-            conf.insert_json5("scouting/multicast/enabled", "false")
         try:
+            conf = self.z.Config()
+            conf.insert_json5("mode", '"peer"')
+            if connect:
+                conf.insert_json5("connect/endpoints", json.dumps(connect))
+                # A router or peer that is not up yet (or restarts) is found again within a
+                # second, not after Zenoh's default back-off of up to 4 s.
+                conf.insert_json5("connect/retry", '{"period_init_ms": 200, "period_max_ms": '
+                                                   '1000, "period_increase_factor": 1.5}')
+            if listen:
+                conf.insert_json5("listen/endpoints", json.dumps(listen))
+            if connect or listen:  # explicit endpoints: no need to shout on the network
+                conf.insert_json5("scouting/multicast/enabled", "false")
             self.session = self.z.open(conf)
-        except Exception as e:
-            raise RuntimeError(f"cannot start Zenoh ({e})") from e
+        except Exception as e:  # the endpoints the user gave, or the network they name: 2
+            raise NetworkError(f"cannot start Zenoh ({e})", exit_code=EXIT_USAGE) from e
         self.domain = domain_id()
         self.zid = str(self.session.zid())
         self._ids = itertools.count(1)

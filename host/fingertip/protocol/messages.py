@@ -10,6 +10,8 @@ from dataclasses import dataclass, field, fields
 from enum import IntEnum
 from typing import Any, ClassVar
 
+from ..errors import EXIT_USAGE, DeviceError
+
 PROTOCOL_MAJOR = 1
 PROTOCOL_MINOR = 0
 MAX_FRAME = 128
@@ -145,12 +147,12 @@ class ForeignInfo:
     protocol_minor: int
 
 
-class ProtocolVersionError(RuntimeError):
-    """The device speaks a major protocol version this host does not. Exit status 2 at the
-    command line (flash or upgrade); the codec sits beside :mod:`fingertip.errors` (rank 0),
-    so it states its exit status instead of subclassing ``DeviceError``."""
+class ProtocolVersionError(DeviceError):
+    """The device speaks a major protocol version this host does not: a
+    :class:`~fingertip.errors.DeviceError` (so a RuntimeError); exit status 2 at the command
+    line (the device the user named needs a flash or an upgrade)."""
 
-    exit_code = 2
+    exit_code = EXIT_USAGE
 
 
 def require_compatible(info: Info | ForeignInfo) -> Info:

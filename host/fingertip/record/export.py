@@ -27,7 +27,7 @@ import numpy as np
 import soundfile as sf
 
 from ..badfile import BadFileError
-from ..errors import Error
+from ..errors import Error, exit_code
 from ..outputs import check_output
 from . import schemas as S
 from .reader import Recording
@@ -36,7 +36,8 @@ _SUBTYPES = {"int16": ("PCM_16",), "int32": ("PCM_32", "PCM_24"), "float32": ("F
 
 
 class ExportError(Error, RuntimeError):
-    """The output folder cannot be written (a failure at run time: exit status 1)."""
+    """The output folder cannot be written: a failure at run time (exit status 1), or the OS
+    refusing the folder the user gave before anything is written (2)."""
 
 
 @dataclass
@@ -160,7 +161,9 @@ def export(path: str | os.PathLike, out_dir: str | os.PathLike, *,
         probe.write_bytes(b"")
         probe.unlink()
     except OSError as e:
-        raise ExportError(f"cannot write into {out}: {e.strerror or e}") from e
+        # before anything is written: the OS refusing the user's folder is theirs (2)
+        raise ExportError(f"cannot write into {out}: {e.strerror or e}",
+                          exit_code=exit_code(e)) from e
     chans = rec.channels()
     forces = {c.name for c in chans.values() if c.kind == "wrench"}
     audio_meta = {c.name: c.metadata for c in chans.values() if c.kind == "audio"}

@@ -39,6 +39,7 @@ from ..audio import AudioStats, RingBuffer, RingSource
 from ..device import BridgeStats, Frame, NotConnected
 from ..device.frames import FrameSource
 from ..protocol import Info, message_from_dict
+from ..errors import BadArgumentError
 from . import schemas as S
 from .reader import Recording, RecordingError
 
@@ -153,9 +154,9 @@ class Replay(FrameSource):
                  block_when_full: bool | None = None, window: float = 2.0,
                  audio_buffer_seconds: float = 10.0) -> None:
         if speed is not None and not (speed > 0 and math.isfinite(speed)):
-            raise ValueError(f"speed must be a positive number (or None), not {speed}")
+            raise BadArgumentError(f"speed must be a positive number (or None), not {speed}")
         if not (isinstance(queue_size, int) and queue_size >= 1):
-            raise ValueError(f"queue_size must be an integer >= 1, not {queue_size!r}")
+            raise BadArgumentError(f"queue_size must be an integer >= 1, not {queue_size!r}")
         self.recording = rec = Recording(path)
         devices = rec.devices()
         if name is None:

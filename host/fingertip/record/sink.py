@@ -8,6 +8,7 @@ import os
 import stat
 from pathlib import Path
 
+from ..errors import EXIT_USAGE, exit_code
 from .stats import RecorderError
 
 
@@ -56,11 +57,11 @@ def open_output(p: Path, overwrite: bool) -> tuple[int, bool]:
         raise io_error(p, e, "cannot record to") from e
     if st is not None and stat.S_ISDIR(st.st_mode):
         raise RecorderError(f"cannot record to {p}: it is a directory; give a file name "
-                            "such as run.mcap")
+                            "such as run.mcap", exit_code=EXIT_USAGE)
     regular = st is None or stat.S_ISREG(st.st_mode)
     if st is not None and regular and not overwrite:
         raise RecorderError(f"{p} already exists (choose another name, or overwrite it "
-                            "explicitly)")
+                            "explicitly)", exit_code=EXIT_USAGE)
     flags = os.O_WRONLY | os.O_CREAT | getattr(os, "O_CLOEXEC", 0)
     if regular:
         flags |= os.O_TRUNC
@@ -70,12 +71,12 @@ def open_output(p: Path, overwrite: bool) -> tuple[int, bool]:
         return os.open(p, flags, 0o644), st is None
     except FileExistsError as e:
         raise RecorderError(f"{p} already exists (choose another name, or overwrite it "
-                            "explicitly)") from e
+                            "explicitly)", exit_code=EXIT_USAGE) from e
     except OSError as e:
         raise io_error(p, e, "cannot create") from e
 
 
-def io_error(path: Path, e: OSError, what: str) -> RecorderError:
+def io_error(path: Path, e: OSError, what: str, code: int | None = None) -> RecorderError:
     """``e`` as one line that says what failed on ``path`` and, when it can, why."""
     reason = e.strerror or str(e)
     hint = ""
@@ -85,4 +86,7 @@ def io_error(path: Path, e: OSError, what: str) -> RecorderError:
         hint = " (no permission to write there)"
     elif e.errno == errno.ENOENT:
         hint = f" (the folder {path.parent} does not exist)"
-    return RecorderError(f"{what} {path}: {reason}{hint}")
+    # ``code`` None: the OS's refusal of a path the user gave is theirs (2), a full disk a
+    # failure (1)
+    return RecorderError(f"{what} {path}: {reason}{hint}",
+                         exit_code=exit_code(e) if code is None else code)

@@ -4,9 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..errors import Error
 
-class RecorderError(RuntimeError):
-    """The recording cannot start, or writing it failed (the message says why and where)."""
+
+class RecorderError(Error, RuntimeError):
+    """The recording cannot start, or writing it failed (the message says why and where). A
+    failure at run time (exit status 1) unless raised with ``exit_code=2``: an output path
+    the user gave that is refused before anything is written."""
 
 
 @dataclass

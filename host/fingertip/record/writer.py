@@ -27,6 +27,7 @@ from mcap.writer import CompressionType
 from mcap.writer import Writer as McapWriter
 
 from .. import __version__
+from ..errors import EXIT_FAILED
 from . import schemas as S
 from .encoding import ForceModel, encode_item, item_topic
 from .packed_index import pack_chunk_indexes
@@ -191,7 +192,8 @@ class RecordWriter:
                     break
             self._finish()
         except OSError as e:
-            self._fail(io_error(self.path, e, "writing failed:"))
+            # after the start the path was accepted: whatever the OS says now is a failure
+            self._fail(io_error(self.path, e, "writing failed:", code=EXIT_FAILED))
         except Exception as e:  # a bug must still leave a clear error, not a dead thread
             log.exception("recorder writer failed")
             self._fail(RecorderError(f"recording to {self.path} failed: {e}"))

@@ -17,14 +17,16 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..device import Fingertip, FingertipError
+from ..errors import BadArgumentError
 from ..device.health import link_text
 from .text import force_fields, force_text, frame_json, frame_line
 
 Say = Callable[[str], None]
 
 
-class StreamError(Exception):
-    """A user error found before streaming (no screen, a refused force model): one line."""
+class StreamError(BadArgumentError):
+    """A user error found before streaming (no screen, a refused force model): one line, a
+    :class:`~fingertip.errors.BadArgumentError` (exit status 2)."""
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ import pytest
 
 from fingertip import Frame
 from fingertip.cli.calibrate import add_parsers
+from fingertip.cli.stopping import run_command
 from fingertip.device import FingerFrame
 from fingertip.models.force.calibrate import (
     INT24_MAX,
@@ -166,7 +167,7 @@ def _run(argv):
     p = argparse.ArgumentParser(prog="fingertip")
     add_parsers(p.add_subparsers(dest="command", required=True))
     args = p.parse_args(argv)
-    return args.func(args)
+    return run_command(args.func, args)  # errors mapped as the command line maps them
 
 
 @pytest.fixture(scope="module")

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...errors import EXIT_USAGE, Error
 from ..nets.standardise import standardise
 
 DEGREE = 2
@@ -40,8 +41,11 @@ SETTLE_WINDOW_S = 0.025
 SETTLE_N = 0.2
 
 
-class AlignmentError(ValueError):
-    """The clocks cannot be aligned: the join would be wrong, so nothing is fitted."""
+class AlignmentError(Error, ValueError):
+    """The clocks cannot be aligned: the join would be wrong, so nothing is fitted (the data
+    the user recorded or gave: exit status 2)."""
+
+    exit_code = EXIT_USAGE
 
 
 @dataclass

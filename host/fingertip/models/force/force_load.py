@@ -11,14 +11,16 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from ...errors import BadArgumentError
 from .runtime import ForceModel
 
 log = logging.getLogger(__name__)
 UNITS = "N"
 
 
-class ModelMismatch(ValueError):
-    """The model does not fit this fingertip (one line: which field, both values)."""
+class ModelMismatch(BadArgumentError):
+    """The model does not fit this fingertip (one line: which field, both values): the
+    user's ``--force-model``, exit status 2 (a ValueError)."""
 
 
 def device_serial(ft) -> str:

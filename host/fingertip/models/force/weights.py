@@ -15,6 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ...errors import EXIT_FAILED
 from .calibrate import CHANNELS, CalibrationData, CalibrationError, from_arrays
 
 G = 9.80665
@@ -154,7 +155,8 @@ def _capture(ft, settle_s: float, record_s: float) -> np.ndarray:
     while True:
         f = ft.read(timeout=2.0)
         if f is None:
-            raise WeightsError("the fingertip stopped streaming")
+            # it streamed, then stopped: a failure at run time (1), not the data's fault
+            raise WeightsError("the fingertip stopped streaming", exit_code=EXIT_FAILED)
         t = f.device_time_us * 1e-6
         t0 = t if t0 is None else t0
         if t - t0 < settle_s:

@@ -13,14 +13,16 @@ from typing import Any
 from ...audio import AudioSource, SoundDeviceSource
 from ...device import Fingertip, FingertipError
 from ...device.pairing import sound_card_for_port
+from ...errors import BadArgumentError
 from .classify import Classification, Prediction, VibrationClassifier
 from ..force.force_load import ForceWindow, ModelMismatch, force_model_for
 
 log = logging.getLogger(__name__)
 
 
-class ForceModelRefused(ValueError):
-    """A ``--force-model`` that does not fit the fingertip, or could not be read."""
+class ForceModelRefused(BadArgumentError):
+    """A ``--force-model`` that does not fit the fingertip, or could not be read (the user's
+    option: exit status 2; a ValueError)."""
 
 
 def decided(p: Prediction, threshold: float) -> bool:

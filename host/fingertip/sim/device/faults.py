@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import BadArgumentError
+
 FAULTS: dict[str, str] = {
     "swapped-data": "DOUT lines of two chips swapped (default chips 0 and 1)",
     "reversed-gauge": "a bridge wired reversed, its sign flipped (default channel 2)",
@@ -70,18 +72,19 @@ def parse_fault(spec: str, channels: int = 4) -> Fault:
     the list of names when unknown)."""
     name, _, chans = spec.strip().partition(":")
     if name not in FAULTS:
-        raise ValueError(f"unknown fault {name!r}; known: {', '.join(FAULTS)}")
+        raise BadArgumentError(f"unknown fault {name!r}; known: {', '.join(FAULTS)}")
     if name in PIEZO_FAULTS:
         if chans:
-            raise ValueError(f"{name} takes no channel")
+            raise BadArgumentError(f"{name} takes no channel")
         return Fault(name)
     want = 2 if name == "swapped-data" else 1
     try:
         ch = tuple(int(c) for c in chans.split(",")) if chans else DEFAULT_CHANNELS[name]
     except ValueError:
-        raise ValueError(f"{spec!r}: channels must be numbers") from None
+        raise BadArgumentError(f"{spec!r}: channels must be numbers") from None
     if len(ch) != want or len(set(ch)) != want or not all(0 <= c < channels for c in ch):
-        raise ValueError(f"{spec!r}: {name} needs {want} distinct channel(s) in 0..{channels - 1}")
+        raise BadArgumentError(f"{spec!r}: {name} needs {want} distinct channel(s) in "
+                               f"0..{channels - 1}")
     return Fault(name, ch)
 
 
