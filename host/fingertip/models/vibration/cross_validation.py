@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -88,6 +88,25 @@ def novelty_on(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
     return Novelty.fit(x, y, k, 1.0 / counts[inv])
 
 
+def add_novelty(ans: dict[int, Answers], cw: CandidateWindows, labels: np.ndarray,
+                folds: list[np.ndarray], k: int) -> dict[int, Answers]:
+    """Out-of-fold answers with the novelty distance of each window, from the novelty
+    model of its fold's training recordings (what :func:`cross_validate` gives with
+    ``novelty``, computed for the chosen candidate only)."""
+    if not ans:
+        return {}
+    pool = np.concatenate(folds)
+    out = dict(ans)
+    for te in folds:
+        mine = [int(i) for i in te if int(i) in ans]
+        if not mine:
+            continue
+        nov = novelty_on(cw, labels, np.setdiff1d(pool, te), k)
+        for i in mine:
+            out[i] = replace(ans[i], dist=nov.distance(cw.test[i].inputs))
+    return out
+
+
 def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
                novelty: Novelty | None = None) -> Answers:
     from .anytime import running
@@ -115,11 +134,11 @@ def _fit_job(name: str, idx: np.ndarray, seed: int) -> tuple[object, float]:
 def _fold_job(f: int, tr: np.ndarray, te: np.ndarray, model: object | None
               ) -> tuple[int, object, float, dict[int, Answers]]:
     """In a worker: one fold (fitted here unless ``model`` is given), its answers."""
-    cand, cw, labels, classes, seed = shared("fold")
+    cand, cw, labels, classes, seed, novelty = shared("fold")
     t0 = time.perf_counter()
     m = fit_on(cand, cw, labels, tr, classes, seed) if model is None else as_fitted(model)
     secs = time.perf_counter() - t0
-    nov = novelty_on(cw, labels, tr, len(classes))
+    nov = novelty_on(cw, labels, tr, len(classes)) if novelty else None
     ans = {int(i): answers_of(m, cw.test[i], f, nov) for i in te if len(cw.test[i])}
     return f, m.model, secs, ans
 
@@ -142,7 +161,7 @@ def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
     first = {}
     for t, j, key in todo:
         m, off = cand.members[j]
-        if m.prepare_first and m.name not in first:
+        if m.first_alone and m.name not in first:
             first[m.name] = key
             t0 = time.perf_counter()
             fitted = fit_on(m, names[m.name][1], labels, trains[t], classes, seed + off)
@@ -161,31 +180,31 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
                    folds: list[np.ndarray], classes: list[str], seed: int,
                    stop: Callable[[dict[int, Answers]], bool] | None = None, *,
                    jobs: int = 1, memo: FitMemo | None = None,
-                   done: Callable[[], None] | None = None) -> dict[int, Answers]:
+                   done: Callable[[], None] | None = None,
+                   novelty: bool = True) -> dict[int, Answers]:
     """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
     is trained on the recordings of the other folds). ``stop``: asked between rounds of
     folds (``jobs`` folds run at a time) with the answers so far; True ends the
     cross-validation there (the answers returned are then those of the folds run).
-    ``memo``: fits made already (and where this one's go); ``done``: called per fold."""
+    ``memo``: fits made already (and where this one's go); ``done``: called per fold.
+    ``novelty``: each answer's novelty distance too (False: left None, :func:`add_novelty`
+    gives it to the answers of the candidate finally chosen; the others never need it)."""
     memo = FitMemo() if memo is None else memo
     pool = np.concatenate(folds)
     trains = [np.setdiff1d(pool, te) for te in folds]
+    if cand.members:
+        return _cross_validate_composite(cand, cw, labels, folds, trains, classes, seed,
+                                         stop, jobs, memo, done, novelty)
     models: list[object | None] = [None] * len(folds)
     secs = [0.0] * len(folds)
-    if cand.members:
-        parts = fit_members(cand, cw, labels, trains, classes, seed, memo, jobs)
-        for f, p in enumerate(parts):
-            models[f] = cand.combine([m for m, _ in p], classes)
-            secs[f] = sum(s for _, s in p)
-    else:
-        for f, tr in enumerate(trains):
-            hit = memo.get(memo.key(cand.name, cw.token, tr, seed))
-            if hit is not None:
-                models[f], secs[f] = hit
-    share = {"fold": (cand, cw, labels, classes, seed)}
+    for f, tr in enumerate(trains):
+        hit = memo.get(memo.key(cand.name, cw.token, tr, seed))
+        if hit is not None:
+            models[f], secs[f] = hit
+    share = {"fold": (cand, cw, labels, classes, seed, novelty)}
     results: list[tuple] = []
     start = 0
-    if cand.prepare_first and models[0] is None:
+    if cand.first_alone and models[0] is None:
         results.append(run_rounds(_fold_job, [(0, trains[0], folds[0], None)], 1, share)[0])
         start = 1
         if done is not None:
@@ -213,6 +232,39 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
         log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
                  len(results), len(folds))
     return answers(results)
+
+
+def _cross_validate_composite(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                              folds: list[np.ndarray], trains: list[np.ndarray],
+                              classes: list[str], seed: int,
+                              stop: Callable[[dict[int, Answers]], bool] | None, jobs: int,
+                              memo: FitMemo, done: Callable[[], None] | None,
+                              novelty: bool) -> dict[int, Answers]:
+    """:func:`cross_validate` of a composite: its members fitted (or found in ``memo``)
+    ``jobs`` folds at a time, so that ``stop`` can end it between rounds like any other
+    candidate's (a trial of the ensemble would otherwise fit every fold's members first)."""
+    step = len(folds) if stop is None else max(1, jobs)
+    out: dict[int, Answers] = {}
+    secs: list[float] = []
+    last = None
+    for start in range(0, len(folds), step):
+        fs = list(range(start, min(len(folds), start + step)))
+        parts = fit_members(cand, cw, labels, [trains[f] for f in fs], classes, seed, memo,
+                            jobs)
+        for f, p in zip(fs, parts, strict=True):
+            last = as_fitted(cand.combine([m for m, _ in p], classes))
+            secs.append(sum(s for _, s in p))
+            nov = novelty_on(cw, labels, trains[f], len(classes)) if novelty else None
+            out.update({int(i): answers_of(last, cw.test[i], f, nov) for i in folds[f]
+                        if len(cw.test[i])})
+            if done is not None:
+                done()
+        if stop is not None and fs[-1] < len(folds) - 1 and stop(out):
+            log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
+                     fs[-1] + 1, len(folds))
+            break
+    cand.last, cand.last_fit_s, cand.fit_s = last, secs[-1], secs
+    return out
 
 
 def fit_final(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
@@ -265,7 +317,7 @@ def cross_validate_against(cand: Candidate, cw: CandidateWindows, labels: np.nda
         return mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) < need
 
     ans = cross_validate(cand, cw, labels, folds, classes, seed, stop=lost, jobs=jobs,
-                         memo=memo, done=done)
+                         memo=memo, done=done, novelty=False)
     run = len({a.fold for a in ans.values()})
     if run < len(folds):
         bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))

@@ -28,7 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from .bank import Bank, build_bank
-from .candidates import TIE, Candidate, candidates
+from .candidates import TIE, Candidate
 from .classify import Dataset, FeaturePipeline
 from .cross_validation import FitMemo, cross_validate_against
 from .mains import find_mains_lines
@@ -46,7 +46,7 @@ def recordings_with_lines(ds: Dataset) -> list[int]:
 
 def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarray,
                     folds: list[np.ndarray], clean: dict[int, Answers], bank: Bank,
-                    seed: int, hidden: tuple[int, ...], epochs: int, *, jobs: int = 1,
+                    seed: int, *, jobs: int = 1,
                     memo: FitMemo | None = None, bars=None
                     ) -> tuple[dict, tuple[Candidate, Setup, Bank, dict[int, Answers]] | None]:
     """Cross-validate ``cand`` again with the notch (``clean`` and ``bank``: its
@@ -81,7 +81,10 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
         out["why"] = "too few recordings to cross-validate it"
         out["seconds"] = round(time.perf_counter() - t0, 3)
         return out, None
-    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
+    # the same candidate on notched features: its fits keep the choices its own
+    # cross-validation made (the L2 penalty), as the augmentation trial's do
+    notched = replace(cand, pipe=FeaturePipeline(replace(cand.pipe.cfg, mains_notch=True),
+                                                 cand.pipe.spec), fit_s=[])
     done = bars("mains notch: features", len(ds.items)) if bars else None
     nb = build_bank(notched_setup, ds, [notched], "notched", done)
     done = bars("mains notch: folds", len(folds)) if bars else None

@@ -46,6 +46,7 @@ from .classify import (
     stratified_folds,
 )
 from .cross_validation import (
+    add_novelty,
     answers_of,
     cnn_work,
     cross_validate,
@@ -129,7 +130,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
         _cross_validate_candidates(run, candidates(run.setup, models, hidden, epochs),
                                    cnn_budget)
         chosen, why = choose(run.results, run.cands)
-        cand = _mains_step(run, chosen, mains_notch, hidden, epochs)
+        cand = _mains_step(run, chosen, mains_notch)
         aug_report = _augmentation_step(run, cand, augment)
         final = _final_step(run, cand)
         return write_outputs(run, cand, final, why, aug_report, out, kind, folds,
@@ -179,7 +180,8 @@ def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_bud
         t0 = time.perf_counter()
         done = run.bars(f"cross-validation: {cand.name}", len(run.folds))
         ans = cross_validate(cand, cw, run.labels, run.folds, run.classes, run.seed,
-                             jobs=run.jobs, memo=run.memo, done=done) if run.folds else {}
+                             jobs=run.jobs, memo=run.memo, done=done,
+                             novelty=False) if run.folds else {}
         run.oof[cand.name] = ans
         table = accuracy_by_time(ans, run.labels) if ans else {}
         run.results[cand.name] = {
@@ -210,16 +212,15 @@ def choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
                   f"the best are tied and the cheapest of them wins)")
 
 
-def _mains_step(run: TrainingRun, chosen: str, mains_notch: bool | None,
-                hidden: tuple[int, ...], epochs: int) -> Candidate:
+def _mains_step(run: TrainingRun, chosen: str, mains_notch: bool | None) -> Candidate:
     """The mains notch: tried on the chosen candidate unless asked (:mod:`.mains_trial`).
     Returns the candidate to go on with (notched when adopted)."""
     cand = next(c for c in run.cands if c.name == chosen)
     t0 = time.perf_counter()
     if mains_notch is None:
         report, won = try_mains_notch(cand, run.setup, run.ds, run.labels, run.folds,
-                                      run.oof[chosen], run.bank, run.seed, hidden, epochs,
-                                      jobs=run.jobs, memo=run.memo, bars=run.bars)
+                                      run.oof[chosen], run.bank, run.seed, jobs=run.jobs,
+                                      memo=run.memo, bars=run.bars)
         if won is not None:
             notched, run.setup, run.bank, run.oof[chosen] = won
             run.cands[run.cands.index(cand)] = cand = notched
@@ -252,11 +253,11 @@ def _augmentation_step(run: TrainingRun, cand: Candidate, augment: AugmentConfig
 def _final_step(run: TrainingRun, cand: Candidate) -> Final:
     """Temperatures from the out-of-fold answers, the model fitted on every training
     recording, and the answers the evaluation scores."""
-    ans = run.oof[cand.name]
+    cw = run.bank.view(cand)
+    ans = add_novelty(run.oof[cand.name], cw, run.labels, run.folds, len(run.classes))
     temps = fold_temperatures(ans, run.labels, len(run.folds)) if ans else []
     t_final = fit_temperature(*at_times(ans, run.labels)) if ans else 1.0
     t0 = time.perf_counter()
-    cw = run.bank.view(cand)
     done = run.bars("final fit", 1)
     fitted = fit_final(cand, cw, run.labels, run.train_idx, run.classes, run.seed, run.memo,
                        run.jobs)
