@@ -94,11 +94,10 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
     if trial.table is None:
         bound = trial.bound
         out.update({"mean_accuracy_without": base, "mean_accuracy_with_at_most": bound,
-                    "folds_run": trial.folds_run})
+                    "folds_run": trial.folds_run, "bound_certain": trial.sure})
         out["why"] = (f"{cand.name} with the mains notch: at most {100 * bound:.2f} % "
-                      f"(after {trial.folds_run} of {len(folds)} folds, the others counted "
-                      f"right) against {100 * base:.2f} % without: not adopted "
-                      f"({len(with_lines)} recordings carry lines)")
+                      f"({trial.stopped_because(len(folds))}) against {100 * base:.2f} % "
+                      f"without: not adopted ({len(with_lines)} recordings carry lines)")
         log.info("%s", out["why"])
         return out, None
     acc = trial.accuracy
