@@ -181,9 +181,14 @@ class LinearFit:
         with blas_threads(1):  # L-BFGS's small products: threads only contend on 2 cores
             m = train_logistic(x, y, classes=classes, groups=g, seed=seed, l2=self.l2,
                                start=self.first)
+        self.keep(m)
+        return m
+
+    def keep(self, m) -> None:
+        """Take the choices of ``m`` when it is the first fit (made elsewhere: in a worker
+        process)."""
         if self.l2 is None:
             self.l2, self.first = m.l2, m
-        return m
 
 
 @dataclass

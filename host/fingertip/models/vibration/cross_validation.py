@@ -145,6 +145,29 @@ def _fold_job(f: int, tr: np.ndarray, te: np.ndarray, model: object | None
     return f, m.model, secs, ans
 
 
+def prepare_first_folds(cands: list[Candidate], cws: list[CandidateWindows],
+                        labels: np.ndarray, folds: list[np.ndarray], classes: list[str],
+                        seed: int, memo: FitMemo, jobs: int = 1) -> dict[str, float]:
+    """The first fold of every candidate whose first fit fixes a choice (the logistic
+    regressions' L2 penalty), fitted side by side in workers, remembered in ``memo`` and
+    its choice kept by the candidate: each then cross-validates all its folds at once.
+    Returns the seconds of each of those fits."""
+    todo = [(c, cw) for c, cw in zip(cands, cws, strict=True)
+            if c.first_alone and not c.members]
+    if not folds or not todo:
+        return {}
+    train0 = np.setdiff1d(np.concatenate(folds), folds[0])
+    share = {c.name: (c, cw, labels, classes) for c, cw in todo}
+    got = run_rounds(_fit_job, [(c.name, train0, seed) for c, _ in todo], jobs,
+                     {"fit": share})
+    out = {}
+    for (c, cw), (model, secs) in zip(todo, got, strict=True):
+        memo.put(memo.key(c.name, cw.token, train0, seed), model, secs)
+        c.fit.keep(model)
+        out[c.name] = secs
+    return out
+
+
 def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
                 trains: list[np.ndarray], classes: list[str], seed: int, memo: FitMemo,
                 jobs: int = 1) -> list[list[tuple[object, float]]]:
