@@ -33,6 +33,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from .augment import AugmentConfig
 from .augment_trial import try_augmentation
@@ -125,19 +126,24 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     if mains_notch is not None:
         features = replace(features or FeatureConfig(), mains_notch=mains_notch)
     ds = folder if isinstance(folder, Dataset) else load_folder(folder, rate_hint=rate_hint)
-    run = _plan(ds, choose_setup(ds, features, max_hz, window_s, step_s), folds,
-                test_fraction, seed, jobs, Bars(progress))
-    try:
-        _cross_validate_candidates(run, candidates(run.setup, models, hidden, epochs),
-                                   cnn_budget)
-        chosen, why = choose(run.results, run.cands)
-        cand = _mains_step(run, chosen, mains_notch)
-        aug_report = _augmentation_step(run, cand, augment)
-        final = _final_step(run, cand)
-        return write_outputs(run, cand, final, why, aug_report, out, kind, folds,
-                             test_fraction, plot, t_all)
-    finally:
-        run.bars.close()
+    # One BLAS thread in this process and the fold workers it forks (they inherit it):
+    # the products here are small, and OpenBLAS's threads spin waiting for each other
+    # when the cores are busy: a 170 x 129 by 129 x 145 product of the features took
+    # 8 ms of CPU with two threads on a loaded 2-core machine, 0.07 ms with one.
+    with threadpool_limits(1):
+        run = _plan(ds, choose_setup(ds, features, max_hz, window_s, step_s), folds,
+                    test_fraction, seed, jobs, Bars(progress))
+        try:
+            _cross_validate_candidates(run, candidates(run.setup, models, hidden, epochs),
+                                       cnn_budget)
+            chosen, why = choose(run.results, run.cands)
+            cand = _mains_step(run, chosen, mains_notch)
+            aug_report = _augmentation_step(run, cand, augment)
+            final = _final_step(run, cand)
+            return write_outputs(run, cand, final, why, aug_report, out, kind, folds,
+                                 test_fraction, plot, t_all)
+        finally:
+            run.bars.close()
 
 
 def _plan(ds: Dataset, setup: Setup, folds: int, test_fraction: float, seed: int,
