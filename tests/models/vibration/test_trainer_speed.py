@@ -244,3 +244,25 @@ def test_progress_line_and_non_tty_lines(capsys):
             p.update()
     err = capsys.readouterr().err
     assert err.startswith("phase: 3 steps ...\n") and "phase: 3/3 in" in err
+
+
+def test_features_in_worker_processes_are_the_same(setup_ds, monkeypatch):
+    """The shared features and the augmented copies' windows, computed in chunks of
+    recordings on two workers, equal those computed in this process."""
+    from fingertip.models.vibration import bank as bank_mod
+    from fingertip.models.vibration.augment import AugmentConfig
+    from fingertip.models.vibration.bank import with_copies
+
+    monkeypatch.setattr(bank_mod, "CHUNK", 5)
+    ds, setup = setup_ds
+    cands = candidates(setup, ("baseline", "ensemble", "cnn"))
+    one, two = (build_bank(setup, ds, cands, "clean", jobs=j) for j in (1, 2))
+    more = [with_copies(b, ds, AugmentConfig(), 3, cands, jobs=j)
+            for b, j in ((one, 1), (two, 2))]
+    for a, b in ((one.train, two.train), (one.test, two.test),
+                 (more[0].train, more[1].train), (one.own["cnn"].test, two.own["cnn"].test),
+                 (more[0].own["cnn"].train, more[1].own["cnn"].train)):
+        assert len(a) == len(b) == len(ds.items)
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x.inputs, y.inputs)
+            np.testing.assert_array_equal(x.t_end, y.t_end)

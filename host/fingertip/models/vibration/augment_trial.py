@@ -70,7 +70,7 @@ def _trial(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentConfig, see
            ) -> tuple[dict, tuple[Bank, dict[int, Answers]] | None]:
     out: dict = {"settings": augment.to_dict(), "what": what}
     done = progress(f"{what}: copies", len(ds.items)) if progress else None
-    more = with_copies(bank, ds, augment, seed, [cand], done)
+    more = with_copies(bank, ds, augment, seed, [cand], done, jobs)
     done = progress(f"{what}: folds", len(folds)) if progress else None
     trial = cross_validate_against(cand, more.view(cand), labels, folds, ds.classes, seed,
                                    clean, base - TIE, jobs=jobs, memo=memo, done=done)

@@ -86,7 +86,7 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
     notched = replace(cand, pipe=FeaturePipeline(replace(cand.pipe.cfg, mains_notch=True),
                                                  cand.pipe.spec), fit_s=[])
     done = bars("mains notch: features", len(ds.items)) if bars else None
-    nb = build_bank(notched_setup, ds, [notched], "notched", done)
+    nb = build_bank(notched_setup, ds, [notched], "notched", done, jobs)
     done = bars("mains notch: folds", len(folds)) if bars else None
     trial = cross_validate_against(notched, nb.view(notched), labels, folds, ds.classes,
                                    seed, clean, base - TIE, jobs=jobs, memo=memo, done=done)

@@ -169,7 +169,8 @@ def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_bud
     ds = run.ds
     t0 = time.perf_counter()
     run.bank = build_bank(run.setup, ds, cands, "clean",
-                          run.bars("features (one spectrum per recording)", len(ds.items)))
+                          run.bars("features (one spectrum per recording)", len(ds.items)),
+                          run.jobs)
     run.timing["features_s"] = time.perf_counter() - t0
     n_fits = len(run.folds) + 1
     t0 = time.perf_counter()
