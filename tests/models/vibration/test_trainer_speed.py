@@ -12,16 +12,22 @@ import numpy as np
 import pytest
 
 from fingertip.models.vibration.bank import build_bank, candidate_windows
-from fingertip.models.vibration.candidates import CANDIDATES, candidates
+from fingertip.models.vibration.candidates import CANDIDATES, TIE, candidates
 from fingertip.models.vibration.classify import load_folder, stratified_folds
 from fingertip.models.vibration.cross_validation import (
+    TRIAL_ROUND,
     FitMemo,
     cross_validate,
     cross_validate_against,
     training_rows,
 )
 from fingertip.models.vibration.progress import Progress
-from fingertip.models.vibration.scores import accuracy_by_time, mean_accuracy
+from fingertip.models.vibration.scores import (
+    Answers,
+    accuracy_by_time,
+    likely_at_most,
+    mean_accuracy,
+)
 from fingertip.models.vibration.setup import choose_setup
 from fingertip.models.vibration.spectral import to_onnx, train_boost, train_svm
 from fingertip.models.nets.mlp import OnnxModel
@@ -140,10 +146,63 @@ def test_a_trial_stopped_early_decides_as_the_full_trial(hard):
             assert trial.bound < need
         adopted_early = trial.table is not None and trial.accuracy >= need
         assert adopted_early is (acc >= need) is False
-    # with the bound triggering from the first fold on, the first check stops it
+    # with the bound triggering from the first round of folds on, the first check stops it
     stopped = cross_validate_against(candidates(setup, ("linear",))[0], cw, labels, folds,
                                      ds.classes, 0, perfect, 1.0 + 1e-9)
-    assert stopped.table is None and stopped.folds_run == 1
+    assert stopped.table is None and stopped.folds_run == TRIAL_ROUND and stopped.sure
+
+
+def test_an_ensemble_trial_stops_after_its_first_round_of_folds(hard):
+    """The ensemble's members are fitted a round of folds at a time, so its trial stops
+    like any candidate's (it used to fit every fold's members before the first check)."""
+    ds, setup = hard
+    labels = ds.labels
+    folds = stratified_folds(labels, 4, 0)
+    cands = candidates(setup, ("baseline", "linear", "mlp", "ensemble"), epochs=20)
+    ens = cands[-1]
+    bank = build_bank(setup, ds, cands, "clean")
+    full = cross_validate(ens, bank.view(ens), labels, folds, ds.classes, 0)
+    memo = FitMemo()
+    stopped = cross_validate_against(ens, bank.view(ens), labels, folds, ds.classes, 0,
+                                     full, 1.0 + 1e-9, jobs=2, memo=memo)
+    assert stopped.table is None and stopped.folds_run == TRIAL_ROUND
+    assert len(memo) == TRIAL_ROUND * len(ens.members)  # the other folds never fitted
+
+
+def _answers(right: list[bool], k: int = 3) -> dict[int, Answers]:
+    """Recording i of class 0 answered (at 0.25, 0.5, 1 s) right or as class 1."""
+    t = np.array([0.25, 0.5, 1.0])
+    out = {}
+    for i, ok in enumerate(right):
+        p = np.full((3, k), 0.1)
+        p[:, 0 if ok else 1] = 0.8
+        out[i] = Answers(p, p, t, i % 5)
+    return out
+
+
+def test_the_confidence_bound_stops_a_trial_only_when_it_is_clearly_behind():
+    """A trial that has answered 400 of 1,000 recordings 3 points worse than the plain
+    model (on the same ones) is stopped: even at 3 standard errors the others cannot
+    bring it within the tie. One only 1 point worse, or one that has answered too few,
+    is not; with every answer the same, nothing is stopped."""
+    rng = np.random.default_rng(0)
+    labels = np.zeros(1000, np.intp)
+    clean_right = rng.uniform(size=1000) < 0.85
+    clean = _answers(list(clean_right))
+    base = mean_accuracy(accuracy_by_time(clean, labels))
+
+    def worse_by(points: float, n: int) -> dict[int, Answers]:
+        right = clean_right[:n].copy()
+        flip = rng.choice(np.flatnonzero(right), int(points / 100 * n), replace=False)
+        right[flip] = False
+        return {i: a for i, a in _answers(list(right)).items()}
+
+    need = base - TIE
+    assert likely_at_most(worse_by(3, 400), clean, labels) < need
+    assert likely_at_most(worse_by(1, 400), clean, labels) > need
+    assert likely_at_most(worse_by(10, 20), clean, labels) == np.inf  # too few to judge
+    same = {i: clean[i] for i in range(400)}
+    assert likely_at_most(same, clean, labels) == pytest.approx(base)
 
 
 @pytest.mark.parametrize("train", [train_svm, train_boost])
@@ -185,3 +244,25 @@ def test_progress_line_and_non_tty_lines(capsys):
             p.update()
     err = capsys.readouterr().err
     assert err.startswith("phase: 3 steps ...\n") and "phase: 3/3 in" in err
+
+
+def test_features_in_worker_processes_are_the_same(setup_ds, monkeypatch):
+    """The shared features and the augmented copies' windows, computed in chunks of
+    recordings on two workers, equal those computed in this process."""
+    from fingertip.models.vibration import bank as bank_mod
+    from fingertip.models.vibration.augment import AugmentConfig
+    from fingertip.models.vibration.bank import with_copies
+
+    monkeypatch.setattr(bank_mod, "CHUNK", 5)
+    ds, setup = setup_ds
+    cands = candidates(setup, ("baseline", "ensemble", "cnn"))
+    one, two = (build_bank(setup, ds, cands, "clean", jobs=j) for j in (1, 2))
+    more = [with_copies(b, ds, AugmentConfig(), 3, cands, jobs=j)
+            for b, j in ((one, 1), (two, 2))]
+    for a, b in ((one.train, two.train), (one.test, two.test),
+                 (more[0].train, more[1].train), (one.own["cnn"].test, two.own["cnn"].test),
+                 (more[0].own["cnn"].train, more[1].own["cnn"].train)):
+        assert len(a) == len(b) == len(ds.items)
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x.inputs, y.inputs)
+            np.testing.assert_array_equal(x.t_end, y.t_end)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.special import log_softmax, softmax
+from scipy.special import softmax
 
 from .inputs import check_training
 from .onnx_io import batch_graph, onnx_builder, save_graph
@@ -54,18 +54,25 @@ def _fit(xs: np.ndarray, y: np.ndarray, k: int, l2: float, weights: np.ndarray,
     from scipy.optimize import minimize
 
     n, d = xs.shape
-    onehot = np.eye(k)[y]
-    wsum = float(weights.sum())
+    rows = np.arange(n)
+    wn = weights / float(weights.sum())
 
     def f(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        # the weighted mean log-loss and its gradient, with the true class's log-probability
+        # picked by index and one exp per entry (L-BFGS calls this hundreds of times)
         w = theta[:d * k].reshape(d, k)
-        b = theta[d * k:]
-        logp = log_softmax(xs @ w + b, axis=1)
-        loss = -float(np.sum(weights * np.sum(onehot * logp, axis=1))) / wsum \
-            + 0.5 * l2 * float(np.sum(w * w))
-        g = (np.exp(logp) - onehot) * (weights / wsum)[:, None]
-        gw = xs.T @ g + l2 * w
-        return loss, np.concatenate([gw.ravel(), g.sum(axis=0)])
+        z = xs @ w
+        z += theta[d * k:]
+        z -= z.max(axis=1, keepdims=True)
+        e = np.exp(z)
+        total = e.sum(axis=1)
+        loss = -float(wn @ (z[rows, y] - np.log(total))) + 0.5 * l2 * float(np.sum(w * w))
+        e /= total[:, None]
+        e[rows, y] -= 1.0
+        e *= wn[:, None]
+        gw = xs.T @ e
+        gw += l2 * w
+        return loss, np.concatenate([gw.ravel(), e.sum(axis=0)])
 
     theta0 = np.zeros(d * k + k) if w0 is None else w0
     res = minimize(f, theta0, jac=True, method="L-BFGS-B",
@@ -77,13 +84,14 @@ def _fit(xs: np.ndarray, y: np.ndarray, k: int, l2: float, weights: np.ndarray,
 
 def train_logistic(x: np.ndarray, y: np.ndarray, *, classes: list[str],
                    l2: float | None = None, groups: np.ndarray | None = None,
-                   seed: int = 0) -> Logistic:
+                   seed: int = 0, start: Logistic | None = None) -> Logistic:
     """Fit on rows ``x`` with integer labels ``y``.
 
     ``groups``: the recording of each row; rows are weighted so that every recording counts
     the same (long recordings give more windows, not more say), and the inner split that
     picks ``l2`` (when None) is by recording, so that correlated windows of one recording
-    never sit on both sides.
+    never sit on both sides. ``start``: a model of the same inputs and classes whose weights
+    the optimisation starts from (a fit on much the same rows converges in fewer steps).
     """
     k = len(classes)
     x, y = check_training(x, y, classes=k)
@@ -93,7 +101,10 @@ def train_logistic(x: np.ndarray, y: np.ndarray, *, classes: list[str],
     xs, mean, std = standardise(x)
     if l2 is None:
         l2 = _choose_l2(xs, y, k, g, weights, seed)
-    w, b = _fit(xs, y, k, l2, weights)
+    w0 = None
+    if start is not None and start.w.shape == (x.shape[1], k):
+        w0 = np.concatenate([start.w.ravel(), start.b])
+    w, b = _fit(xs, y, k, l2, weights, w0)
     return Logistic(w, b, mean, std, list(classes), float(l2))
 
 

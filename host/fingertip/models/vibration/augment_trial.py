@@ -70,7 +70,7 @@ def _trial(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentConfig, see
            ) -> tuple[dict, tuple[Bank, dict[int, Answers]] | None]:
     out: dict = {"settings": augment.to_dict(), "what": what}
     done = progress(f"{what}: copies", len(ds.items)) if progress else None
-    more = with_copies(bank, ds, augment, seed, [cand], done)
+    more = with_copies(bank, ds, augment, seed, [cand], done, jobs)
     done = progress(f"{what}: folds", len(folds)) if progress else None
     trial = cross_validate_against(cand, more.view(cand), labels, folds, ds.classes, seed,
                                    clean, base - TIE, jobs=jobs, memo=memo, done=done)
@@ -78,10 +78,10 @@ def _trial(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentConfig, see
         bound = trial.bound
         out.update({"mean_accuracy_without": base, "mean_accuracy_with": None,
                     "mean_accuracy_with_at_most": bound, "folds_run": trial.folds_run,
-                    "adopted": False})
-        out["why"] = (f"{cand.name} with {what}: at most {100 * bound:.2f} % (after "
-                      f"{trial.folds_run} of {len(folds)} folds, the others counted right) "
-                      f"against {100 * base:.2f} % without: not adopted")
+                    "bound_certain": trial.sure, "adopted": False})
+        out["why"] = (f"{cand.name} with {what}: at most {100 * bound:.2f} % "
+                      f"({trial.stopped_because(len(folds))}) against {100 * base:.2f} % "
+                      "without: not adopted")
         log.info("%s", out["why"])
         return out, None
     acc = trial.accuracy

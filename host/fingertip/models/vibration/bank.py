@@ -25,6 +25,7 @@ from .augment import AugmentConfig, augmented
 from .candidates import BANK_STATS, Candidate, bank_config
 from .classify import Dataset, FeaturePipeline, Windows
 from .features import CANONICAL_RATE, Recording
+from .parallel import run_rounds, shared
 from .setup import Setup
 
 log = logging.getLogger(__name__)
@@ -96,64 +97,97 @@ def _shared(pipe: FeaturePipeline, p90: FeaturePipeline, rec: Recording, trainin
     return replace(w, inputs=np.hstack([w.inputs, q.inputs]))
 
 
+CHUNK = 25
+"""Recordings per job when the features are computed in worker processes."""
+
+
+def _chunk_job(key: str, lo: int, hi: int) -> list:
+    """In a worker: the per-recording function shared under ``key`` on ``lo..hi-1``."""
+    fn = shared(key)
+    return [fn(i) for i in range(lo, hi)]
+
+
+def _per_recording(key: str, fn: Callable[[int], object], n: int, jobs: int,
+                   done: Callable[[], None] | None) -> list:
+    """``[fn(i) for i in range(n)]``, in chunks of :data:`CHUNK` recordings on ``jobs``
+    worker processes (each recording's result depends on it alone, so the same)."""
+    if jobs <= 1:
+        out = []
+        for i in range(n):
+            out.append(fn(i))
+            if done is not None:
+                done()
+        return out
+
+    def tick() -> None:  # a chunk is done
+        for _ in range(CHUNK):
+            done()
+
+    chunks = [(key, lo, min(n, lo + CHUNK)) for lo in range(0, n, CHUNK)]
+    parts = run_rounds(_chunk_job, chunks, jobs, {key: fn},
+                       done=tick if done is not None else None)
+    return [r for part in parts for r in part]
+
+
 def build_bank(setup: Setup, ds: Dataset, cands: Sequence[Candidate], token: str,
-               done: Callable[[], None] | None = None) -> Bank:
+               done: Callable[[], None] | None = None, jobs: int = 1) -> Bank:
     """One short-time spectrum per recording of ``ds``; its shared windows, and the own
-    windows of the candidates of ``cands`` without columns (from the same spectrum)."""
+    windows of the candidates of ``cands`` without columns (from the same spectrum).
+    ``jobs``: worker processes (the recordings are independent)."""
     t0 = time.perf_counter()
     pipe, p90 = bank_pipeline(setup), p90_pipeline(setup)
     nb = setup.cfg.n_bands
     others = [c for c in cands if c.cols is None]
-    train, test = [], []
-    own: dict[str, tuple[list, list]] = {c.name: ([], []) for c in others}
-    for it in ds.items:
-        power = pipe.power(it.rec)
-        train.append(_shared(pipe, p90, it.rec, True, power))
-        test.append(_shared(pipe, p90, it.rec, False, power))
-        for c in others:  # log bands only: the spectrum's first columns
-            own[c.name][0].append(c.pipe.windows(it.rec, True, power[:, :nb]))
-            own[c.name][1].append(c.pipe.windows(it.rec, power=power[:, :nb]))
-        if done is not None:
-            done()
+
+    def one(i: int) -> tuple:
+        rec = ds.items[i].rec
+        power = pipe.power(rec)
+        # log bands only for the others: the spectrum's first columns
+        return (_shared(pipe, p90, rec, True, power), _shared(pipe, p90, rec, False, power),
+                [(c.pipe.windows(rec, True, power[:, :nb]),
+                  c.pipe.windows(rec, power=power[:, :nb])) for c in others])
+
+    got = _per_recording("bank", one, len(ds.items), jobs, done)
+    train = [g[0] for g in got]
+    test = [g[1] for g in got]
     secs = time.perf_counter() - t0
-    return Bank(pipe, p90, train, test, secs, token,
-                {k: CandidateWindows(tr, te, secs, token) for k, (tr, te) in own.items()})
+    own = {c.name: CandidateWindows([g[2][k][0] for g in got], [g[2][k][1] for g in got],
+                                    secs, token) for k, c in enumerate(others)}
+    return Bank(pipe, p90, train, test, secs, token, own)
 
 
 def with_copies(bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
                 cands: Sequence[Candidate] = (),
-                done: Callable[[], None] | None = None) -> Bank:
+                done: Callable[[], None] | None = None, jobs: int = 1) -> Bank:
     """``bank`` with the training windows of ``augment.copies`` augmented copies of every
     recording added (reproducible from ``seed`` and the recording's index; the answered
     windows stay clean). Of a copy, only what the model answers at run time is kept (the
     windows from the start; all of a spectrogram model's): the copies teach invariance at
-    a third of the rows."""
+    a third of the rows. ``jobs``: worker processes."""
     t0 = time.perf_counter()
     pipe = bank.pipe
     nb = pipe.cfg.n_bands
-    train = []
-    own_train: dict[str, list] = {c.name: [] for c in cands if c.cols is None}
-    for i, it in enumerate(ds.items):
+    others = [c for c in cands if c.cols is None]
+
+    def one(i: int) -> tuple:
+        it = ds.items[i]
         copies = augmented(it.rec, augment, [seed, i], pipe.cfg.canonical_rate) \
-            if augment.copies else []
+            if augment.copies and len(bank.train[i]) else []
         parts = [bank.train[i]]
-        others: dict[str, list] = {k: [bank.own[k].train[i]] for k in own_train}
-        for r in copies if len(bank.train[i]) else []:
+        own = [[bank.own[c.name].train[i]] for c in others]
+        for r in copies:
             power = pipe.power(r)
             parts.append(_prefixes(_shared(pipe, bank.p90, r, True, power)))
-            for c in cands:
-                if c.cols is None:
-                    others[c.name].append(_prefixes(c.pipe.windows(r, True, power[:, :nb])))
-        train.append(_concat(parts))
-        for k, v in others.items():
-            own_train[k].append(_concat(v))
-        if done is not None:
-            done()
+            for k, c in enumerate(others):
+                own[k].append(_prefixes(c.pipe.windows(r, True, power[:, :nb])))
+        return _concat(parts), [_concat(v) for v in own]
+
+    got = _per_recording("copies", one, len(ds.items), jobs, done)
     secs = bank.seconds + time.perf_counter() - t0
     token = f"{bank.token}+{augment.to_dict()}+{seed}"
-    own = {k: CandidateWindows(own_train[k], bank.own[k].test, secs, token)
-           for k in own_train}
-    return Bank(pipe, bank.p90, train, bank.test, secs, token, own)
+    own = {c.name: CandidateWindows([g[1][k] for g in got], bank.own[c.name].test, secs,
+                                    token) for k, c in enumerate(others)}
+    return Bank(pipe, bank.p90, [g[0] for g in got], bank.test, secs, token, own)
 
 
 _FIELDS = ("inputs", "t_start", "t_end", "level_db", "clipped")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -24,12 +24,14 @@ from .classify import Dataset, DatasetError, Windows, stratified_folds
 from .parallel import run_rounds, shared
 from .reliability import Novelty, apply_temperature
 from .scores import (
+    STOP_Z,
     UNKNOWN_KEEP,
     Answers,
     accuracy_by_time,
     best_case,
     calibrated,
     fold_temperatures,
+    likely_at_most,
     mean_accuracy,
 )
 
@@ -88,6 +90,25 @@ def novelty_on(cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray, k: int
     return Novelty.fit(x, y, k, 1.0 / counts[inv])
 
 
+def add_novelty(ans: dict[int, Answers], cw: CandidateWindows, labels: np.ndarray,
+                folds: list[np.ndarray], k: int) -> dict[int, Answers]:
+    """Out-of-fold answers with the novelty distance of each window, from the novelty
+    model of its fold's training recordings (what :func:`cross_validate` gives with
+    ``novelty``, computed for the chosen candidate only)."""
+    if not ans:
+        return {}
+    pool = np.concatenate(folds)
+    out = dict(ans)
+    for te in folds:
+        mine = [int(i) for i in te if int(i) in ans]
+        if not mine:
+            continue
+        nov = novelty_on(cw, labels, np.setdiff1d(pool, te), k)
+        for i in mine:
+            out[i] = replace(ans[i], dist=nov.distance(cw.test[i].inputs))
+    return out
+
+
 def answers_of(fitted: Fitted, w: Windows, fold: int = -1,
                novelty: Novelty | None = None) -> Answers:
     from .anytime import running
@@ -115,13 +136,36 @@ def _fit_job(name: str, idx: np.ndarray, seed: int) -> tuple[object, float]:
 def _fold_job(f: int, tr: np.ndarray, te: np.ndarray, model: object | None
               ) -> tuple[int, object, float, dict[int, Answers]]:
     """In a worker: one fold (fitted here unless ``model`` is given), its answers."""
-    cand, cw, labels, classes, seed = shared("fold")
+    cand, cw, labels, classes, seed, novelty = shared("fold")
     t0 = time.perf_counter()
     m = fit_on(cand, cw, labels, tr, classes, seed) if model is None else as_fitted(model)
     secs = time.perf_counter() - t0
-    nov = novelty_on(cw, labels, tr, len(classes))
+    nov = novelty_on(cw, labels, tr, len(classes)) if novelty else None
     ans = {int(i): answers_of(m, cw.test[i], f, nov) for i in te if len(cw.test[i])}
     return f, m.model, secs, ans
+
+
+def prepare_first_folds(cands: list[Candidate], cws: list[CandidateWindows],
+                        labels: np.ndarray, folds: list[np.ndarray], classes: list[str],
+                        seed: int, memo: FitMemo, jobs: int = 1) -> dict[str, float]:
+    """The first fold of every candidate whose first fit fixes a choice (the logistic
+    regressions' L2 penalty), fitted side by side in workers, remembered in ``memo`` and
+    its choice kept by the candidate: each then cross-validates all its folds at once.
+    Returns the seconds of each of those fits."""
+    todo = [(c, cw) for c, cw in zip(cands, cws, strict=True)
+            if c.first_alone and not c.members]
+    if not folds or not todo:
+        return {}
+    train0 = np.setdiff1d(np.concatenate(folds), folds[0])
+    share = {c.name: (c, cw, labels, classes) for c, cw in todo}
+    got = run_rounds(_fit_job, [(c.name, train0, seed) for c, _ in todo], jobs,
+                     {"fit": share})
+    out = {}
+    for (c, cw), (model, secs) in zip(todo, got, strict=True):
+        memo.put(memo.key(c.name, cw.token, train0, seed), model, secs)
+        c.fit.keep(model)
+        out[c.name] = secs
+    return out
 
 
 def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
@@ -142,7 +186,7 @@ def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
     first = {}
     for t, j, key in todo:
         m, off = cand.members[j]
-        if m.prepare_first and m.name not in first:
+        if m.first_alone and m.name not in first:
             first[m.name] = key
             t0 = time.perf_counter()
             fitted = fit_on(m, names[m.name][1], labels, trains[t], classes, seed + off)
@@ -157,39 +201,47 @@ def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
              for m, off in cand.members] for tr in trains]
 
 
+TRIAL_ROUND = 2
+"""Folds per round of a cross-validation that may stop (a trial): it is asked whether to
+go on after each round, the same rounds whatever the number of workers (so that its
+decision never depends on them; two folds fill this machine's two cores)."""
+
+
+def fold_rounds(n: int, may_stop: bool) -> list[list[int]]:
+    """The folds ``0..n-1`` in the rounds they run in: all at once, or, when the
+    cross-validation may stop, :data:`TRIAL_ROUND` at a time."""
+    size = TRIAL_ROUND if may_stop else max(1, n)
+    return [list(range(i, min(n, i + size))) for i in range(0, n, size)]
+
+
 def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
                    folds: list[np.ndarray], classes: list[str], seed: int,
                    stop: Callable[[dict[int, Answers]], bool] | None = None, *,
                    jobs: int = 1, memo: FitMemo | None = None,
-                   done: Callable[[], None] | None = None) -> dict[int, Answers]:
+                   done: Callable[[], None] | None = None,
+                   novelty: bool = True) -> dict[int, Answers]:
     """Out-of-fold answers of every recording of ``folds`` (test sets; each fold's model
-    is trained on the recordings of the other folds). ``stop``: asked between rounds of
-    folds (``jobs`` folds run at a time) with the answers so far; True ends the
-    cross-validation there (the answers returned are then those of the folds run).
-    ``memo``: fits made already (and where this one's go); ``done``: called per fold."""
+    is trained on the recordings of the other folds; ``jobs`` folds run at a time).
+    ``stop``: asked after each round of folds (:func:`fold_rounds`) with the answers so
+    far; True ends the cross-validation there (the answers returned are then those of the
+    folds run).
+    ``memo``: fits made already (and where this one's go); ``done``: called per fold.
+    ``novelty``: each answer's novelty distance too (False: left None, :func:`add_novelty`
+    gives it to the answers of the candidate finally chosen; the others never need it)."""
     memo = FitMemo() if memo is None else memo
     pool = np.concatenate(folds)
     trains = [np.setdiff1d(pool, te) for te in folds]
+    if cand.members:
+        return _cross_validate_composite(cand, cw, labels, folds, trains, classes, seed,
+                                         stop, jobs, memo, done, novelty)
     models: list[object | None] = [None] * len(folds)
     secs = [0.0] * len(folds)
-    if cand.members:
-        parts = fit_members(cand, cw, labels, trains, classes, seed, memo, jobs)
-        for f, p in enumerate(parts):
-            models[f] = cand.combine([m for m, _ in p], classes)
-            secs[f] = sum(s for _, s in p)
-    else:
-        for f, tr in enumerate(trains):
-            hit = memo.get(memo.key(cand.name, cw.token, tr, seed))
-            if hit is not None:
-                models[f], secs[f] = hit
-    share = {"fold": (cand, cw, labels, classes, seed)}
+    for f, tr in enumerate(trains):
+        hit = memo.get(memo.key(cand.name, cw.token, tr, seed))
+        if hit is not None:
+            models[f], secs[f] = hit
+    share = {"fold": (cand, cw, labels, classes, seed, novelty)}
     results: list[tuple] = []
-    start = 0
-    if cand.prepare_first and models[0] is None:
-        results.append(run_rounds(_fold_job, [(0, trains[0], folds[0], None)], 1, share)[0])
-        start = 1
-        if done is not None:
-            done()
 
     def answers(rs: list[tuple]) -> dict[int, Answers]:
         out: dict[int, Answers] = {}
@@ -197,11 +249,17 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
             out.update(a)
         return out
 
-    lost = None if stop is None else (lambda rs: stop(answers(results + rs)))
-    if not (lost is not None and start and lost([])):
-        results += run_rounds(_fold_job, [(f, trains[f], folds[f], models[f])
-                                          for f in range(start, len(folds))], jobs, share,
-                              stop=lost, done=done)
+    for fs in fold_rounds(len(folds), stop is not None):
+        if cand.first_alone and models[fs[0]] is None:  # it fixes a choice: alone, first
+            results.append(run_rounds(_fold_job, [(fs[0], trains[fs[0]], folds[fs[0]],
+                                                   None)], 1, share)[0])
+            if done is not None:
+                done()
+            fs = fs[1:]
+        results += run_rounds(_fold_job, [(f, trains[f], folds[f], models[f]) for f in fs],
+                              jobs, share, done=done)
+        if stop is not None and len(results) < len(folds) and stop(answers(results)):
+            break
     for f, model, s, _ in results:
         if models[f] is None:
             memo.put(memo.key(cand.name, cw.token, trains[f], seed), model, s)
@@ -213,6 +271,38 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
         log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
                  len(results), len(folds))
     return answers(results)
+
+
+def _cross_validate_composite(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
+                              folds: list[np.ndarray], trains: list[np.ndarray],
+                              classes: list[str], seed: int,
+                              stop: Callable[[dict[int, Answers]], bool] | None, jobs: int,
+                              memo: FitMemo, done: Callable[[], None] | None,
+                              novelty: bool) -> dict[int, Answers]:
+    """:func:`cross_validate` of a composite: its members fitted (or found in ``memo``)
+    a round of folds at a time (:func:`fold_rounds`), so that ``stop`` can end it between
+    rounds like any other candidate's (a trial of the ensemble would otherwise fit every
+    fold's members first)."""
+    out: dict[int, Answers] = {}
+    secs: list[float] = []
+    last = None
+    for fs in fold_rounds(len(folds), stop is not None):
+        parts = fit_members(cand, cw, labels, [trains[f] for f in fs], classes, seed, memo,
+                            jobs)
+        for f, p in zip(fs, parts, strict=True):
+            last = as_fitted(cand.combine([m for m, _ in p], classes))
+            secs.append(sum(s for _, s in p))
+            nov = novelty_on(cw, labels, trains[f], len(classes)) if novelty else None
+            out.update({int(i): answers_of(last, cw.test[i], f, nov) for i in folds[f]
+                        if len(cw.test[i])})
+            if done is not None:
+                done()
+        if stop is not None and fs[-1] < len(folds) - 1 and stop(out):
+            log.info("cross-validation of %s stopped after %d of %d folds", cand.name,
+                     fs[-1] + 1, len(folds))
+            break
+    cand.last, cand.last_fit_s, cand.fit_s = last, secs[-1], secs
+    return out
 
 
 def fit_final(cand: Candidate, cw: CandidateWindows, labels: np.ndarray, idx: np.ndarray,
@@ -244,11 +334,22 @@ class Trial:
     table: dict[str, dict] | None
     """Accuracy by decision time when every fold ran; None when it stopped early."""
     bound: float | None
-    """When stopped early: the most its mean accuracy could still have reached."""
+    """When stopped early: the most its mean accuracy could still have reached (``sure``),
+    or its upper confidence bound (:func:`~.scores.likely_at_most`)."""
+    sure: bool = True
+    """Stopped by the certain bound (every recording to come counted right), not by the
+    confidence bound."""
 
     @property
     def accuracy(self) -> float | None:
         return None if self.table is None else mean_accuracy(self.table)
+
+    def stopped_because(self, n_folds: int) -> str:
+        """Why it stopped, for the report (when it did)."""
+        how = "the others counted right" if self.sure else \
+            (f"the others expected like these: the upper bound at {STOP_Z:g} standard "
+             "errors of the paired difference")
+        return f"after {self.folds_run} of {n_folds} folds, {how}"
 
 
 def cross_validate_against(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
@@ -257,19 +358,31 @@ def cross_validate_against(cand: Candidate, cw: CandidateWindows, labels: np.nda
                            memo: FitMemo | None = None,
                            done: Callable[[], None] | None = None) -> Trial:
     """Cross-validate ``cand`` (windows ``cw``) on ``folds`` to be compared with ``need``,
-    a mean accuracy over the decision times. The folds stop as soon as even right answers
-    on every recording of ``clean`` (the plain model's answers) still to come could not
-    reach ``need``, checked from the first fold on: the remaining folds could not change
-    the decision."""
+    a mean accuracy over the decision times. After each round of folds
+    (:func:`fold_rounds`) it stops when even right answers on every recording of
+    ``clean`` (the plain model's answers) still to come could not reach ``need`` (then
+    the remaining folds could not change the decision), or when, with the recordings to
+    come answered as those answered so far, it would not reach ``need`` with
+    :data:`~.scores.STOP_Z` standard errors to spare (:func:`~.scores.likely_at_most`:
+    the remaining folds would change the decision about once in a thousand trials)."""
+    why: dict[str, float | bool] = {}
+
     def lost(part: dict[int, Answers]) -> bool:
-        return mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels)) < need
+        sure = mean_accuracy(accuracy_by_time(best_case(part, clean, labels), labels))
+        if sure < need:
+            why.update(bound=sure, sure=True)
+            return True
+        likely = likely_at_most(part, clean, labels)
+        if likely < need:
+            why.update(bound=likely, sure=False)
+            return True
+        return False
 
     ans = cross_validate(cand, cw, labels, folds, classes, seed, stop=lost, jobs=jobs,
-                         memo=memo, done=done)
+                         memo=memo, done=done, novelty=False)
     run = len({a.fold for a in ans.values()})
     if run < len(folds):
-        bound = mean_accuracy(accuracy_by_time(best_case(ans, clean, labels), labels))
-        return Trial(ans, run, None, bound)
+        return Trial(ans, run, None, float(why["bound"]), bool(why["sure"]))
     return Trial(ans, len(folds), accuracy_by_time(ans, labels), None)
 
 

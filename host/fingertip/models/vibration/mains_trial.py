@@ -28,7 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from .bank import Bank, build_bank
-from .candidates import TIE, Candidate, candidates
+from .candidates import TIE, Candidate
 from .classify import Dataset, FeaturePipeline
 from .cross_validation import FitMemo, cross_validate_against
 from .mains import find_mains_lines
@@ -46,7 +46,7 @@ def recordings_with_lines(ds: Dataset) -> list[int]:
 
 def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarray,
                     folds: list[np.ndarray], clean: dict[int, Answers], bank: Bank,
-                    seed: int, hidden: tuple[int, ...], epochs: int, *, jobs: int = 1,
+                    seed: int, *, jobs: int = 1,
                     memo: FitMemo | None = None, bars=None
                     ) -> tuple[dict, tuple[Candidate, Setup, Bank, dict[int, Answers]] | None]:
     """Cross-validate ``cand`` again with the notch (``clean`` and ``bank``: its
@@ -81,9 +81,12 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
         out["why"] = "too few recordings to cross-validate it"
         out["seconds"] = round(time.perf_counter() - t0, 3)
         return out, None
-    notched = candidates(notched_setup, (cand.name,), hidden, epochs)[0]
+    # the same candidate on notched features: its fits keep the choices its own
+    # cross-validation made (the L2 penalty), as the augmentation trial's do
+    notched = replace(cand, pipe=FeaturePipeline(replace(cand.pipe.cfg, mains_notch=True),
+                                                 cand.pipe.spec), fit_s=[])
     done = bars("mains notch: features", len(ds.items)) if bars else None
-    nb = build_bank(notched_setup, ds, [notched], "notched", done)
+    nb = build_bank(notched_setup, ds, [notched], "notched", done, jobs)
     done = bars("mains notch: folds", len(folds)) if bars else None
     trial = cross_validate_against(notched, nb.view(notched), labels, folds, ds.classes,
                                    seed, clean, base - TIE, jobs=jobs, memo=memo, done=done)
@@ -91,11 +94,10 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
     if trial.table is None:
         bound = trial.bound
         out.update({"mean_accuracy_without": base, "mean_accuracy_with_at_most": bound,
-                    "folds_run": trial.folds_run})
+                    "folds_run": trial.folds_run, "bound_certain": trial.sure})
         out["why"] = (f"{cand.name} with the mains notch: at most {100 * bound:.2f} % "
-                      f"(after {trial.folds_run} of {len(folds)} folds, the others counted "
-                      f"right) against {100 * base:.2f} % without: not adopted "
-                      f"({len(with_lines)} recordings carry lines)")
+                      f"({trial.stopped_because(len(folds))}) against {100 * base:.2f} % "
+                      f"without: not adopted ({len(with_lines)} recordings carry lines)")
         log.info("%s", out["why"])
         return out, None
     acc = trial.accuracy

@@ -48,6 +48,53 @@ def best_case(part: dict[int, Answers], every: dict[int, Answers], labels: np.nd
     return out
 
 
+STOP_Z = 3.0
+"""A trial is stopped as likely lost when its mean accuracy's upper confidence bound at
+this many standard errors (one-sided, about 0.13 % by the normal approximation) stays below
+what it must reach: :func:`likely_at_most`."""
+MIN_PAIRED = 30
+"""Recordings a trial must have answered before :func:`likely_at_most` judges it."""
+
+
+def _hits(a: Answers, label: int, times: Sequence[float | None]) -> list[float]:
+    """Right (1) or wrong (0) at each of ``times`` the recording lasted, as
+    :func:`accuracy_by_time` counts it."""
+    out = []
+    for t in times:
+        if t is not None and a.t_end[-1] < t - LASTED_TOL_S:
+            continue
+        q = at_time(a.run, a.t_end, t)
+        out.append(float(q is not None and int(np.argmax(q)) == label))
+    return out
+
+
+def likely_at_most(part: dict[int, Answers], every: dict[int, Answers], labels: np.ndarray,
+                   z: float = STOP_Z, times: Sequence[float | None] = DECISION_TIMES
+                   ) -> float:
+    """An upper confidence bound of the mean accuracy (over the decision times) that a
+    cross-validation begun with ``part`` will reach on every recording of ``every`` (the
+    plain model's answers on the same folds), or inf when too few are answered to judge.
+
+    The folds are a random partition, so the recordings still to come are a draw like
+    those answered: the paired difference (``part``'s right answers minus ``every``'s on
+    the same recordings) seen so far is the estimate of theirs, with the standard error of
+    the difference between two such draws (from the per-recording differences). The bound
+    is ``every``'s accuracy plus the difference seen plus ``z`` standard errors of what
+    the rest could still change."""
+    seen = [i for i in part if i in every]
+    rest = len(every) - len(seen)
+    if len(seen) < MIN_PAIRED or rest <= 0:
+        return math.inf
+    d = np.array([np.mean(np.subtract(_hits(part[i], labels[i], times),
+                                      _hits(every[i], labels[i], times)))
+                  for i in seen])
+    diff = mean_accuracy(accuracy_by_time({i: part[i] for i in seen}, labels, times)) \
+        - mean_accuracy(accuracy_by_time({i: every[i] for i in seen}, labels, times))
+    se = float(np.std(d, ddof=1)) * math.sqrt(1 / len(seen) + 1 / rest)
+    share_left = rest / len(every)
+    return mean_accuracy(accuracy_by_time(every, labels, times)) + diff + share_left * z * se
+
+
 def fold_temperatures(ans: dict[int, Answers], labels: np.ndarray, n_folds: int,
                       times: Sequence[float | None] = DECISION_TIMES) -> list[float]:
     """For each fold, the temperature fitted on the other folds' out-of-fold answers (at
