@@ -127,6 +127,18 @@ def atomic_output(dest: PathLike) -> Iterator[Path]:
     replace(tmp, dest)
 
 
+def writable_folder(path: PathLike) -> Path:
+    """Create the folder ``path`` (and its parents) and check that a file can be made in it,
+    before a command writes anything there; an :class:`OSError` says why not. The check's
+    file has a unique name (:func:`tempfile.mkstemp`), so no file of the user's is touched."""
+    folder = Path(path)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, probe = tempfile.mkstemp(dir=folder, prefix=".fingertip-", suffix=".probe")
+    os.close(fd)
+    os.unlink(probe)
+    return folder
+
+
 def write_text(dest: PathLike, text: str) -> Path:
     """``text`` (UTF-8) written to ``dest`` through :func:`atomic_output`: a reader, or a
     crash, never leaves half a file."""

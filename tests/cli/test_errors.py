@@ -26,7 +26,14 @@ from fingertip.errors import (
     describe,
     exit_code,
 )
-from fingertip.outputs import OutputExists, atomic_output, check_output, replace, temp_path
+from fingertip.outputs import (
+    OutputExists,
+    atomic_output,
+    check_output,
+    replace,
+    temp_path,
+    writable_folder,
+)
 
 
 @pytest.mark.parametrize(("e", "code"), [
@@ -202,6 +209,18 @@ def test_temporary_files_are_unique_and_renamed_only_over_regular_files(tmp_path
     assert not a.exists() and stat.S_ISCHR(os.stat("/dev/null").st_mode)
     b.unlink()
     assert sorted(p.name for p in tmp_path.iterdir()) == [".run.mcap.part", "run.mcap"]
+
+
+def test_a_writable_folder_is_made_and_left_as_it_was(tmp_path):
+    mine = tmp_path / "out" / ".fingertip-export-probe"  # the old fixed probe name
+    mine.parent.mkdir()
+    mine.write_bytes(b"the user's")
+    assert writable_folder(tmp_path / "out") == tmp_path / "out"
+    assert [p.name for p in mine.parent.iterdir()] == [mine.name]
+    assert mine.read_bytes() == b"the user's"
+    assert writable_folder(tmp_path / "a" / "b").is_dir()  # parents too
+    with pytest.raises(OSError):
+        writable_folder(mine / "x")  # under a file
 
 
 @pytest.mark.parametrize(("x", "full_scale", "says"), [

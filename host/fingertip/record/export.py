@@ -28,7 +28,7 @@ import soundfile as sf
 
 from ..badfile import BadFileError
 from ..errors import Error, exit_code
-from ..outputs import check_output
+from ..outputs import check_output, writable_folder
 from . import schemas as S
 from .reader import Recording
 
@@ -156,10 +156,7 @@ def export(path: str | os.PathLike, out_dir: str | os.PathLike, *,
                        folder=True)
     created = not out.exists()
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".fingertip-export-probe"
-        probe.write_bytes(b"")
-        probe.unlink()
+        writable_folder(out)
     except OSError as e:
         # before anything is written: the OS refusing the user's folder is theirs (2)
         raise ExportError(f"cannot write into {out}: {e.strerror or e}",

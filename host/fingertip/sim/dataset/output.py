@@ -15,6 +15,7 @@ import numpy as np
 
 from ...badfile import check_input
 from ...errors import Error
+from ...outputs import atomic_output, writable_folder
 from ..physics import (
     load,
     params_path,
@@ -121,10 +122,7 @@ def prepare_output(out: str | os.PathLike, force: bool = False) -> list[str]:
                                 f"(left in place): {', '.join(left[:5])}"
                                 + (" ..." if len(left) > 5 else ""))
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".fingertip-dataset-probe"
-        probe.write_bytes(b"")
-        probe.unlink()
+        writable_folder(out)
     except OSError as e:
         raise DatasetError(f"cannot write into {out}: {e.strerror or e}") from e
     return warnings
@@ -154,8 +152,6 @@ def _remove_dataset(out: Path, meta: dict[str, Any]) -> None:
 
 def write_meta(out: Path, meta: dict[str, Any]) -> None:
     """Write the dataset's description (dataset.json) atomically into ``out``."""
-    from ...outputs import atomic_output
-
     with atomic_output(out / META_FILE) as tmp:
         tmp.write_text(json.dumps(meta, indent=1) + "\n", encoding="utf-8")
 
