@@ -33,6 +33,18 @@ def vectors() -> dict:
 
 
 @pytest.fixture
+def port(tmp_path):
+    """A virtual fingertip on a pty whose four channels read 1000, 2000, -3000 and 4: the
+    path of its stable link."""
+    from fingertip.sim import VirtualFirmware
+    from fingertip.sim.device.pty_device import PtyDevice
+
+    fw = VirtualFirmware(4, source=lambda t: (1000, 2000, -3000, 4))
+    with PtyDevice(fw, link=tmp_path / "ft") as dev:
+        yield str(dev.link)
+
+
+@pytest.fixture
 def tasks_cache(tmp_path_factory, monkeypatch) -> Path:
     """One cache of the simulated world's models (a force model per virtual unit, the shake
     MLP) for the session: the task tests and `fingertip experiment` train each once."""

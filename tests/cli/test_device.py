@@ -8,23 +8,13 @@ import sys
 import time
 from pathlib import Path
 
-import pytest
 
-from fingertip.sim import VirtualFirmware
-from fingertip.sim.device.pty_device import PtyDevice
 
 EXE = str(Path(sys.executable).with_name("fingertip"))
 
 
 def run(*args, timeout=30):
     return subprocess.run([EXE, *args], capture_output=True, text=True, timeout=timeout)
-
-
-@pytest.fixture
-def port(tmp_path):
-    fw = VirtualFirmware(4, source=lambda t: (1000, 2000, -3000, 4))
-    with PtyDevice(fw, link=tmp_path / "ft") as dev:
-        yield str(dev.link)
 
 
 def test_info_tare_stream(port):

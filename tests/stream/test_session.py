@@ -7,17 +7,8 @@ import os
 
 import pytest
 
-from fingertip.sim import VirtualFirmware
-from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.stream import StreamError, StreamSettings, stream_fingertip
 from fingertip.transport import TransportError
-
-
-@pytest.fixture
-def port(tmp_path):
-    fw = VirtualFirmware(4, source=lambda t: (1000, 2000, -3000, 4))
-    with PtyDevice(fw, link=tmp_path / "ft") as dev:
-        yield str(dev.link)
 
 
 def test_count_frames_as_json_after_a_tare(port):
