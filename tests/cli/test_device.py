@@ -9,7 +9,6 @@ import time
 from pathlib import Path
 
 
-
 EXE = str(Path(sys.executable).with_name("fingertip"))
 
 
