@@ -135,13 +135,11 @@ sim: system-packages
 lint: venv
 	$(VENV)/bin/ruff check host tests pcb mechanical studies
 
-# pytest in two passes: the tests not marked `realtime` spread over PYTEST_WORKERS processes
-# (pytest-xdist, test by test; the tests of a module that share a module fixture stay
-# together on one worker, which builds it once: tests/conftest.py), then the `realtime` ones (they assert on wall-clock time) one at a
-# time, with no other test beside them. PYTEST_ARGS goes to both.
-# pytest exits 5 when it collected nothing: when neither pass ran a test, that must fail,
-# never pass as "green"; one pass may be empty (PYTEST_ARGS=tests/protocol has no realtime
-# test).
+# pytest in two passes at the same time (tools/run-pytest.sh says how): the tests marked
+# `realtime` (they assert on wall-clock time) one at a time at normal priority, beside the
+# others spread over PYTEST_WORKERS processes under nice (pytest-xdist, test by test; the tests
+# of a module that share a module fixture stay together on one worker, which builds it once:
+# tests/conftest.py). PYTEST_ARGS goes to both; when neither collects a test, that fails.
 PYTEST_WORKERS ?= 3
 # One BLAS/OpenMP thread a test process: three workers on two cores, each with a pool of its
 # own, would oversubscribe the cores (OpenBLAS spins while it waits).
@@ -149,14 +147,7 @@ test-python: export OMP_NUM_THREADS = 1
 test-python: export OPENBLAS_NUM_THREADS = 1
 test-python: export MKL_NUM_THREADS = 1
 test-python: venv venv-fab pcb-tools hostlib
-	@rc1=0; rc2=0; \
-	$(VPY) -m pytest -n $(PYTEST_WORKERS) --dist loadgroup -m "not realtime" $(PYTEST_ARGS) \
-	    || rc1=$$?; \
-	$(VPY) -m pytest -n 0 -m realtime $(PYTEST_ARGS) || rc2=$$?; \
-	if [ $$rc1 -eq 5 ] && [ $$rc2 -eq 5 ]; then \
-	    echo "pytest collected no tests: failing" >&2; exit 1; fi; \
-	for rc in $$rc1 $$rc2; do \
-	    if [ $$rc -ne 0 ] && [ $$rc -ne 5 ]; then exit $$rc; fi; done
+	@tools/run-pytest.sh $(VPY) $(PYTEST_WORKERS) $(PYTEST_ARGS)
 
 # The virtual fingertip end to end: physics -> the firmware in simavr -> bridge -> events.
 demo: setup

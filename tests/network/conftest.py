@@ -24,10 +24,11 @@ def localhost_only(monkeypatch):
 
 
 def domain_id() -> int:
-    """A DDS domain per test process: parallel workers (pytest-xdist's gw0 to gw3) get
-    different ones for sure, separate runs on one machine most likely (by process id). Even
-    numbers: a test may use its domain + 1 as one where nobody listens."""
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw")
+    """A DDS domain per test process: parallel workers (pytest-xdist's gw0 to gw2) and the
+    serial realtime pass running beside them (as 3) get different ones for sure, separate runs
+    on one machine most likely (by process id). Even numbers: a test may use its domain + 1 as
+    one where nobody listens."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw3").removeprefix("gw")
     return 18 + (os.getpid() % 25) * 8 + 2 * (int(worker) % 4)
 
 

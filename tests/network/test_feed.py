@@ -6,6 +6,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 
 from fingertip.audio import Chunk
 from fingertip.device import Frame
@@ -81,6 +82,7 @@ def test_audio_of_an_unsupported_dtype_is_counted():
     assert (m.encoding, m.frames, m.data) == ("S16LE", 4, b"\0" * 8)
 
 
+@pytest.mark.realtime  # the chunks' length follows the wall clock of a paced source
 def test_audio_is_published_in_chunks_of_at_least_20_ms_without_gaps():
     from fingertip.audio import SimulatedSource
 

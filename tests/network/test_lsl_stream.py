@@ -2,6 +2,7 @@
 lsl` in another process: every frame, force, event and audio sample arrives with its values."""
 from __future__ import annotations
 
+import os
 import signal
 import time
 
@@ -12,14 +13,18 @@ from fingertip.record import schemas as S
 from .conftest import start, wait_line
 from .test_dds_stream import FORCE_MODEL, by_topic
 
-# LSL finds streams by name anywhere on the machine and has no domains: every LSL test lives
-# in this module, which make test hands to one pytest-xdist worker (--dist loadscope), so one
-# test's subscriber never meets another's publisher.
+# LSL finds streams by name anywhere on the machine and has no domains: each test names its
+# fingertip after itself and its process, so one test's subscriber never meets another's
+# publisher, whichever processes run them at the same time (make test runs the realtime pass
+# beside the parallel one).
 
 
-def decoded(path, kind):
-    return [S.DECODERS[S.TOPIC_KINDS[kind]](d) for _, d in by_topic(path)[S.topic("index",
-                                                                                     kind)]]
+def unique_name(test: str) -> str:
+    return f"{test}_{os.getpid()}"
+
+
+def decoded(path, name, kind):
+    return [S.DECODERS[S.TOPIC_KINDS[kind]](d) for _, d in by_topic(path)[S.topic(name, kind)]]
 
 
 @pytest.mark.realtime
@@ -27,10 +32,11 @@ def decoded(path, kind):
 def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
     pytest.importorskip("pylsl")
     local, remote = tmp_path / "local.mcap", tmp_path / "remote.mcap"
-    sub = start("record", "--from", "lsl", "--name", "index", "-o", str(remote))
+    name = unique_name("run10s")
+    sub = start("record", "--from", "lsl", "--name", name, "-o", str(remote))
     try:
-        wait_line(sub, "recording index from lsl")
-        pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", "index",
+        wait_line(sub, f"recording {name} from lsl")
+        pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", name,
                     "--virtual-audio", "--force-model", FORCE_MODEL, "--duration", "10",
                     "--record", str(local), "--wait-subscribers", "1", "--wait-timeout", "30")
         _, err = pub.communicate(timeout=60)
@@ -40,7 +46,7 @@ def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
         sub.send_signal(signal.SIGTERM)
         _, sub_err = sub.communicate(timeout=30)
     assert sub.returncode == 0, sub_err
-    raw_a, raw_b = decoded(local, "raw"), decoded(remote, "raw")
+    raw_a, raw_b = decoded(local, name, "raw"), decoded(remote, name, "raw")
     assert len(raw_a) >= 780 and len(raw_b) == len(raw_a)
     for a, b in zip(raw_a, raw_b, strict=True):
         assert (a.seq, a.device_time_us, a.counts, a.timeout_mask, a.saturation_mask) == \
@@ -48,13 +54,13 @@ def test_every_message_of_a_10s_run_arrives_over_lsl(tmp_path):
         # LSL's clock synchronisation on one machine: stamps agree to well under 1 ms.
         assert abs(a.stamp_ns - b.stamp_ns) < 1_000_000
         assert abs((a.arrival_ns - a.stamp_ns) - (b.arrival_ns - b.stamp_ns)) < 1000
-    w_a, w_b = decoded(local, "wrench"), decoded(remote, "wrench")
+    w_a, w_b = decoded(local, name, "wrench"), decoded(remote, name, "wrench")
     assert [w.force for w in w_a] == [w.force for w in w_b] and len(w_a) == len(raw_a)
-    e_a, e_b = decoded(local, "events"), decoded(remote, "events")
+    e_a, e_b = decoded(local, name, "events"), decoded(remote, name, "events")
     assert [(e.kind, e.value, e.detail) for e in e_a] == [(e.kind, e.value, e.detail)
                                                           for e in e_b]
     # Audio: LSL re-chunks the stream; the samples are the same, none lost.
-    au_a, au_b = decoded(local, "audio"), decoded(remote, "audio")
+    au_a, au_b = decoded(local, name, "audio"), decoded(remote, name, "audio")
     assert b"".join(m.data for m in au_a) == b"".join(m.data for m in au_b)
     assert sum(m.frames for m in au_a) >= 9 * 44100
     assert {m.sample_rate for m in au_b} == {44100.0}
@@ -65,13 +71,14 @@ def test_lsl_streams_declare_the_device_rate_channels_and_information():
     lsl = pytest.importorskip("pylsl")
     import json
 
-    pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", "index",
+    name = unique_name("declare")
+    pub = start("publish", "--transport", "lsl", "--virtual", "1", "--name", name,
                 "--duration", "20")
     try:
         wait_line(pub, "publishing")
         infos = {}
         for kind in ("raw", "forces", "events"):
-            found = lsl.resolve_byprop("name", f"fingertip/index/{kind}", 1, 10.0)
+            found = lsl.resolve_byprop("name", f"fingertip/{name}/{kind}", 1, 10.0)
             assert found, kind
             infos[kind] = lsl.StreamInlet(found[0]).info(timeout=10.0)
     finally:
@@ -82,4 +89,4 @@ def test_lsl_streams_declare_the_device_rate_channels_and_information():
     assert infos["raw"].channel_count() == 4 + 5
     assert infos["events"].nominal_srate() == lsl.IRREGULAR_RATE
     dev = json.loads(infos["raw"].desc().child_value("fingertip"))
-    assert dev["name"] == "index" and dev["info"]["channels"] == 4
+    assert dev["name"] == name and dev["info"]["channels"] == 4

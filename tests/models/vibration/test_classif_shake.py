@@ -109,7 +109,7 @@ def test_cnn_gradients_and_onnx_export(tmp_path):
     prm = {k: v.copy() for k, v in m.params.items()}
     cache: dict = {}
     p = m.forward(x, np.float64, cache=cache, params=prm)
-    grads = m._backward(cache, (p - np.eye(3)[y]) / 4, prm)
+    grads = m.backward(cache, (p - np.eye(3)[y]) / 4, prm)
     assert set(grads) == set(prm)
     for k in prm:
         for _ in range(3):

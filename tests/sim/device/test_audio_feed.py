@@ -95,14 +95,16 @@ def test_stop_kills_the_player_by_pid(pulse_server):  # noqa: F811
     feed = AudioFeed(trace, sink=pulse_server.sink).start()
     time.sleep(0.3)
     assert feed.running
-    pid = feed.pid
+    pid, wav = feed.pid, feed.trace_file
+    assert wav is not None and wav.exists()
     t0 = time.monotonic()
     feed.stop()
     assert time.monotonic() - t0 < 2.0
     assert not feed.running and feed.returncode is not None
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)
-    assert feed._dir is None  # the temporary WAV is gone
+    assert feed.trace_file is None and not wav.exists()  # the temporary WAV is gone
+    assert not wav.parent.exists()
     feed.stop()  # twice is fine
 
 
@@ -121,7 +123,7 @@ def test_missing_player_names_the_package(slide):
     feed = AudioFeed(slide, env={"PATH": "/nonexistent"})
     with pytest.raises(AudioFeedError, match="pulseaudio-utils"):
         feed.start()
-    assert feed.proc is None and feed._dir is None
+    assert feed.proc is None and feed.trace_file is None
 
 
 def test_arguments_are_checked():

@@ -194,7 +194,7 @@ class SmallResNet:
         """Class probabilities (N, k) for windows ``x`` (N, frames, bands) in dB.
 
         ``dtype`` float64 is the reference the ONNX graph must reproduce in float32;
-        ``cache`` (a dict) collects what :meth:`_backward` needs.
+        ``cache`` (a dict) collects what :meth:`backward` needs.
         """
         prm = params if params is not None else {k: v.astype(dtype, copy=False)
                                                  for k, v in self.params.items()}
@@ -227,8 +227,8 @@ class SmallResNet:
             c["out_in"] = g
         return softmax(g @ prm["out.w"] + prm["out.b"], axis=1)
 
-    def _backward(self, c: dict, dlogits: np.ndarray, prm: dict[str, np.ndarray]
-                  ) -> dict[str, np.ndarray]:
+    def backward(self, c: dict, dlogits: np.ndarray, prm: dict[str, np.ndarray]
+                 ) -> dict[str, np.ndarray]:
         """Gradients of every parameter from the forward ``cache`` and d(loss)/d(logits)."""
         grads: dict[str, np.ndarray] = {}
 
@@ -400,7 +400,7 @@ def _train(x, y, classes, x_val, y_val, spec, epochs, batch, lr, weight_decay, p
             pr = model.forward(x[bi], np.float32, cache=cache, params=p32)
             tr_loss += float(-np.log(pr[np.arange(len(bi)), y[bi]] + 1e-12).sum())
             dlogits = (pr - eye[y[bi]]) / len(bi)
-            grads = model._backward(cache, dlogits.astype(np.float32), p32)
+            grads = model.backward(cache, dlogits.astype(np.float32), p32)
             step += 1
             c1, c2 = 1 - b1 ** step, 1 - b2 ** step
             for n in names:

@@ -135,6 +135,14 @@ class AudioFeed:
     def returncode(self) -> int | None:
         return self.proc.poll() if self.proc is not None else None
 
+    @property
+    def trace_file(self) -> Path | None:
+        """The temporary file the player reads, while there is one (removed by :meth:`stop`
+        and by a failed :meth:`start`)."""
+        if self._dir is None:
+            return None
+        return next(self._dir.glob("trace.*"), None)
+
     # --- life cycle -----------------------------------------------------------------------
 
     def _tool(self) -> str:
