@@ -50,7 +50,7 @@ from ..physics.task_scenes import (
 )
 from ..physics.vibration import AudioChain, good_fft_size, half_sine, place, smooth_noise
 from ..world.boxes import make_box_world, shake_model_path
-from ..world.cache import cached
+from ..world.cache import cache_dir, cached
 from ..world.demonstration import demonstrate
 from ..world.hand import CHIP, TOFU, unit_force_model
 
@@ -64,7 +64,8 @@ __all__ = [
     "good_fft_size", "half_sine", "load_params", "load_realism", "Material", "material_named",
     "pinch", "PinchConfig", "place", "Realism", "RobotArm", "RobotHand", "unit_force_model",
     "SimulatedSource", "unstack", "VirtualStrainSensor",
-    "cached", "fit_key", "LiveShakeClassifier", "models_dir", "physics_dir", "read_box",
+    "cache_dir", "cached", "fit_key", "LiveShakeClassifier", "models_dir", "physics_dir",
+    "read_box",
     "train_shake", "version", "majority_vote",
     "ShakeConfig", "shake_and_pick", "VibrationClassifier", "make_box_world", "shake_model_path",
 ]

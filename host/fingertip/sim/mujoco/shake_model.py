@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -30,6 +31,7 @@ from .project import (
     RobotHand,
     ShakeConfig,
     majority_vote,
+    cache_dir,
     cached,
     fit_key,
     read_box,
@@ -165,15 +167,29 @@ def mujoco_shake_model_path(per_class: int = PER_CLASS) -> Path:
                    "models": "mlp", "train_seed": 0},
                   [Path(here).parent, physics_dir(), models_dir()], version())
 
-    def build(folder: Path) -> None:
-        # read_box needs a classifier to run; its votes are not used here.
-        clf = VibrationClassifier(shake_model_path(), kind="shake")
-        log.info("recording %d MuJoCo shakes per class in %s", per_class, folder)
-        write_shakes(folder / "data", per_class, clf)
-        train_shake(folder / "data", folder / "model", models=("mlp",), plot=False, seed=0)
-        shutil.rmtree(folder / "data")
-        for item in (folder / "model").iterdir():
-            os.replace(item, folder / item.name)
-        (folder / "model").rmdir()
+    world_model = shake_model_path()
+    name = f"mujoco-shake-mlp-{per_class}-{key}"
+    # Built before the cache's (non-re-entrant) lock is taken: recording uses cached force
+    # models itself; the cache then only takes the finished folder.
+    if not (cache_dir() / name / "shake_mlp.onnx").is_file():
+        cache_dir().mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f"{name}-build-", dir=cache_dir()))
+        try:
+            # read_box needs a classifier to run; its votes are not used here.
+            clf = VibrationClassifier(world_model, kind="shake")
+            log.info("recording %d MuJoCo shakes per class in %s", per_class, tmp)
+            write_shakes(tmp / "data", per_class, clf)
+            train_shake(tmp / "data", tmp / "model", models=("mlp",), plot=False, seed=0)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
 
-    return cached(f"mujoco-shake-mlp-{per_class}-{key}", "shake_mlp.onnx", build)
+        def build(folder: Path) -> None:
+            for item in (tmp / "model").iterdir():
+                os.replace(item, folder / item.name)
+            shutil.rmtree(tmp)
+    else:
+        def build(folder: Path) -> None:
+            raise RuntimeError(f"{name} vanished from the cache while in use")
+
+    return cached(name, "shake_mlp.onnx", build)
