@@ -47,8 +47,8 @@ from .project import (
 from .sensor import FingertipSensor
 
 RATTLE_MM = 4.0
-"""Slip of a screw on the cardboard per rattle tick (mm): at the paper's shake, about the
-world's 5 ticks per screw per second."""
+"""Slip of a screw on the cardboard per rattle tick (mm): at the paper's shake, 2-4 ticks per
+screw per second of shaking (seeds 1 and 2), of the order of the world's 5."""
 MIN_APPROACH_M_S = 0.002
 """A remade contact slower than this is a resting item's contact flickering, not an impact."""
 CREAK_REF_M_S2 = 0.05 * (2 * math.pi * 0.67) ** 2
