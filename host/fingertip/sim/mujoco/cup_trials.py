@@ -4,8 +4,9 @@ Each trial (seed ``s``), drawn as today's world draws its own (``sim/world/cups.
 rims' pitch (6.5-7.5 mm), each nested fit's cling (1.5-4 cup weights), how far each open
 finger's nail reaches over the rims (0.2-0.6 mm: the hand's aperture set to the stack, as
 the operator sets it), the start 2.5-4 mm above the top rim, the slide speed (6-15 mm/s), the
-target (1-3 cups), and the nail finger's microphone: its gain (x0.6-1.5) and mains (50/60 Hz). The hand tares above the stack, the arm puts the nails at the start,
-and :func:`~fingertip.tasks.cups.unstack` counts the rims from the nail finger's piezo (f0)
+target (1-3 cups), and the nail finger's microphone: its gain (x0.6-1.5) and mains
+(50/60 Hz). The hand tares above the stack, the arm puts the nails at the start, and
+:func:`~fingertip.tasks.cups.unstack` counts the rims from the nail finger's piezo (f0)
 and the arm's logged height, grasps, lifts and separates.
 
 Success is judged from MuJoCo's ground truth, which the recipe never sees: the rims it

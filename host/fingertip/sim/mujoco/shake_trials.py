@@ -107,8 +107,21 @@ def shake_trial(seed: int, target: str, clf, cfg: ShakeConfig | None = None,
     world.updates.append(lambda d: x_log.append(float(d.qpos[0])))
     cfg = cfg or hand_config()
     rec = RecordingHand(hand)
-    r = shake_and_pick(rec, ShakeMarkingArm(arm, rec), clf,
-                       [(x * 1e3, 0.0, GRIP_Z_MM) for x in BOX_X], target, cfg)
+    start = [world.d.xpos[b["body"]].copy() for b in boxes]
+    try:
+        r = shake_and_pick(rec, ShakeMarkingArm(arm, rec), clf,
+                           [(x * 1e3, 0.0, GRIP_Z_MM) for x in BOX_X], target, cfg)
+    except RuntimeError as e:
+        # The arm stopped on something (a robot's collision stop): a failed trial.
+        moved = [round(float(np.linalg.norm(world.d.xpos[b["body"]] - p0)) * 1e3, 2)
+                 for b, p0 in zip(boxes, start, strict=True)]
+        log.info("seed %d: %s (boxes moved %s mm)", seed, e, moved)
+        return {"seed": seed, "target": target,
+                "boxes": [{"content": f.content, "items": f.items, "vote": None,
+                           "predictions": 0, "shares": {}, "moved_mm": m}
+                          for f, m in zip(tr.fills, moved, strict=True)],
+                "opened": None, "success": False, "failure": "arm blocked",
+                "detail": str(e)}
     trays = [float(world.d.qpos[b["tray_qpos"]] * 1e3) for b in boxes]
     opened = [i for i, t in enumerate(trays) if t >= TRAY_OPEN_MM]
     want = [i for i, f in enumerate(tr.fills) if f.content == target]
@@ -116,7 +129,7 @@ def shake_trial(seed: int, target: str, clf, cfg: ShakeConfig | None = None,
     if failure is None and opened != want:
         failure = "wrong vote" if r.chosen is not None and r.chosen != want[0] else "not opened"
     out_boxes = []
-    for k, (f, b) in enumerate(zip(tr.fills, sound.boxes, strict=True)):
+    for k, (f, b, b_info) in enumerate(zip(tr.fills, sound.boxes, boxes, strict=True)):
         rd = r.readings[k] if k < len(r.readings) else None
         row = {"content": f.content, "items": f.items, "vote": rd.vote if rd else None,
                "predictions": rd.predictions if rd else 0,
@@ -126,6 +139,8 @@ def shake_trial(seed: int, target: str, clf, cfg: ShakeConfig | None = None,
             v, shares = vote(also, rec.audio(k, cfg.listen), cfg.step_s)
             row["also_vote"] = v
             row["also_shares"] = {c: round(x, 3) for c, x in shares.items()}
+        row["moved_mm"] = round(float(np.linalg.norm(world.d.xpos[b_info["body"]]
+                                                     - start[k])) * 1e3, 2)
         out_boxes.append(row)
     x = np.asarray(x_log)
     return {"seed": seed, "target": target, "boxes": out_boxes,
