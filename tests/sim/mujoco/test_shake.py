@@ -4,25 +4,22 @@ whose contents are free bodies; `make bench` runs the paper's 56 trials
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
-from fingertip.models.vibration.classify import VibrationClassifier
 from fingertip.sim.mujoco.box_sound import BoxSound
 from fingertip.sim.mujoco.boxes import BoxFill, box_pair
 from fingertip.sim.mujoco.robot import MujocoWorld
 from fingertip.sim.mujoco.shake_model import vote
-from fingertip.sim.mujoco.shake_trials import ShakeTrial, shake_trial, targets
-from fingertip.sim.world.boxes import make_box_world, shake_model_path
-
-
-@pytest.fixture(scope="module")
-def world_clf(tmp_path_factory):
-    mp = pytest.MonkeyPatch()
-    mp.setenv("FINGERTIP_TASKS_CACHE", str(tmp_path_factory.getbasetemp() / "tasks-models"))
-    try:
-        yield VibrationClassifier(shake_model_path(), kind="shake")
-    finally:
-        mp.undo()
+from fingertip.sim.mujoco.boxes import BOX_X
+from fingertip.sim.mujoco.shake_trials import (
+    GRIP_Z_MM,
+    TRAY_OPEN_MM,
+    ShakeTrial,
+    hand_config,
+    set_up,
+    targets,
+)
+from fingertip.tasks.shake_pick import open_box, read_box
+from fingertip.sim.world.boxes import make_box_world
 
 
 def _jolted(speed_m_s: float) -> BoxSound:
@@ -60,21 +57,27 @@ def test_the_trials_take_todays_worlds_draws_for_the_same_seed():
     assert targets(8, 0).count("screws") == 4
 
 
-def test_a_trial_shakes_both_boxes_and_opens_the_target_only(world_clf):
-    # Seed 1: rubber bands (8) at -80 mm, 12 screws at +80 mm; the target rubber bands.
-    r = shake_trial(1, "rubber_bands", world_clf)
-    assert r["success"], r
-    bands, screws = r["boxes"]
-    assert bands["content"] == "rubber_bands" and screws["content"] == "screws"
-    assert all(b["predictions"] >= 46 for b in r["boxes"])     # 10 Hz over 5.6 s
-    assert screws["vote"] == "screws"
-    assert screws["impacts"] > 20 and screws["ticks"] > 20    # the screws rattle
-    assert bands["tray_mm"] >= 6.0 > 1.0 > screws["tray_mm"]
-    assert 45 <= r["shake_amplitude_mm"] <= 51
+def test_the_recipe_hears_the_screws_and_opens_their_box_alone(shake_clf):
+    # One box of a trial (a whole trial shakes both: twice as long): seed 1 has 12 screws
+    # at +80 mm, read by the recipe's read_box and opened by its open_box.
+    tr = ShakeTrial.draw(1)
+    assert [(f.content, f.items) for f in tr.fills] == [("rubber_bands", 8), ("screws", 12)]
+    world, hand, arm, sound = set_up(tr)
+    cfg = hand_config()
+    where = (BOX_X[1] * 1e3, 0.0, GRIP_Z_MM)
+    r = read_box(hand, arm, shake_clf, where, cfg)
+    assert r.failure is None and r.predictions >= 46            # 10 Hz over 5.6 s
+    assert r.vote == "screws"
+    screws = sound.boxes[1]
+    assert screws.impacts > 20 and screws.ticks > 20             # the screws rattle
+    assert sound.boxes[0].impacts == 0                           # the other box rests
+    assert open_box(hand, arm, where, cfg)
+    trays = [world.d.qpos[b["tray_qpos"]] * 1e3 for b in world.scene.info["boxes"]]
+    assert trays[1] >= TRAY_OPEN_MM > 1.0 > trays[0]
 
 
-def test_a_vote_over_silence_is_none(world_clf):
+def test_a_vote_over_silence_is_none(shake_clf):
     from fingertip.tasks.interfaces import AudioBlock
 
-    v, shares = vote(world_clf, AudioBlock(np.zeros(0, np.float32), 44100.0, 0.0), 0.1)
+    v, shares = vote(shake_clf, AudioBlock(np.zeros(0, np.float32), 44100.0, 0.0), 0.1)
     assert v is None and shares == {}
