@@ -449,6 +449,12 @@ DESCRIPTION = {
     "mujoco_shake_world_rubber_bands_impacts_median": ("median scripted impacts per shake of "
                                                        "the same rubber-band boxes in today's "
                                                        "world", None),
+    "mujoco_shake_failed_arm_blocked": ("MuJoCo shake trials in which the arm stopped on a "
+                                        "box that a swing in the grip had moved (a nail on "
+                                        "its roof)", None),
+    "mujoco_shake_failed_not_opened": ("MuJoCo shake trials in which the chosen box was "
+                                       "right but the other box's tray was out too (it slid "
+                                       "while the box swung)", None),
     "mujoco_hold_held_fused": ("MuJoCo holds that kept the object (slid < 5 mm) with the "
                                "fused slip reflex (tasks/hold.py, Coulomb law), of 20: five "
                                "objects in turn, a sudden load of 0.2-0.8 x the mass", None),
