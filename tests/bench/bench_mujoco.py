@@ -36,7 +36,6 @@ Single thread, pinned to one core where possible.
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 import statistics
@@ -278,8 +277,6 @@ def cups_figures(trials: int = 36) -> dict[str, float]:
 def shake_figures(trials: int = 56) -> dict[str, float]:
     """The paper's shake-and-pick in both worlds, the same seeds and targets."""
     mj = run_mujoco_shake(trials, 0, progress=lambda m: print(m, file=sys.stderr, flush=True))
-    (Path(tempfile.gettempdir()) / "mujoco_shake_trials.json").write_text(
-        json.dumps([t for t in mj.trials], indent=1))
     world = world_experiment.run_shake(trials, 0)
     s = mj.summary()
     out: dict[str, float] = {"mujoco_shake_pick_success": mj.success,
