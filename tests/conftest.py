@@ -53,6 +53,20 @@ def tasks_cache(tmp_path_factory, monkeypatch) -> Path:
     return d
 
 
+@pytest.fixture(scope="module")
+def shake_clf(tmp_path_factory):
+    """Today's world's shake classifier, trained once in the session's tasks cache."""
+    from fingertip.models.vibration.classify import VibrationClassifier
+    from fingertip.sim.world.boxes import shake_model_path
+
+    mp = pytest.MonkeyPatch()
+    mp.setenv("FINGERTIP_TASKS_CACHE", str(tmp_path_factory.getbasetemp() / "tasks-models"))
+    try:
+        yield VibrationClassifier(shake_model_path(), kind="shake")
+    finally:
+        mp.undo()
+
+
 @pytest.fixture
 def fil_builds() -> None:
     """Fail clearly when the simavr harness or the 4-channel firmware has not been built."""

@@ -21,6 +21,12 @@
   with the recipe of ``tasks/cups.py`` (this hand's settings: the nail's ride over a lip,
   the lip and nail heights), beside ``mujoco_cups_world_success``, today's world's 36 trials
   with the same seeds, in this run.
+- ``mujoco_shake_pick_success`` (of the paper's 56) on the four-finger hand over two closed
+  boxes whose contents (free bodies) rattle in MuJoCo, with the recipe of
+  ``tasks/shake_pick.py`` and today's world's shake classifier (trained on its simulated
+  shakes), beside ``mujoco_shake_pick_world_success``, today's world's 56 trials with the
+  same seeds; the classifier's box votes on the MuJoCo shakes, per content, and the contents'
+  wall impacts per shake in both worlds (the domain gap's figures; docs/mujoco.md).
 - ``mujoco_hold_held_fused`` / ``_none`` (of 20): the slip-reflex hold of ``tasks/hold.py``
   on the sideways gripper, a load of 0.2-0.8 x the object's mass hung on it in 5 ms, with
   the fused reflex and without, beside today's world's same protocol
@@ -31,6 +37,7 @@ Single thread, pinned to one core where possible.
 from __future__ import annotations
 
 import os
+import sys
 import statistics
 import tempfile
 import time
@@ -43,6 +50,8 @@ from fingertip.sim.mujoco import FIDELITIES, FingertipSensor
 from fingertip.sim.mujoco import experiment as mujoco_experiment
 from fingertip.sim.mujoco.cup_trials import run_cups as run_mujoco_cups
 from fingertip.sim.mujoco.hold_trials import run_holds
+from fingertip.sim.mujoco.shake_trials import run_shake as run_mujoco_shake
+from fingertip.sim.physics import BoxShake
 from fingertip.sim.world.slip import run_hold_trial, slip_trials
 from fingertip.sim.mujoco.drive import press_and_slide
 from fingertip.sim.mujoco.drive import run as step_scene
@@ -265,6 +274,38 @@ def cups_figures(trials: int = 36) -> dict[str, float]:
     return out
 
 
+def shake_figures(trials: int = 56) -> dict[str, float]:
+    """The paper's shake-and-pick in both worlds, the same seeds and targets."""
+    mj = run_mujoco_shake(trials, 0, progress=lambda m: print(m, file=sys.stderr, flush=True))
+    world = world_experiment.run_shake(trials, 0)
+    s = mj.summary()
+    out: dict[str, float] = {"mujoco_shake_pick_success": mj.success,
+                             "mujoco_shake_pick_world_success": world.success,
+                             "mujoco_shake_votes_correct": s["box_votes_correct"],
+                             "mujoco_shake_votes": s["box_votes"]}
+    boxes = [b for t in mj.trials for b in t["boxes"] if b["vote"] is not None]
+    wboxes = [b for t in world.trials for b in t["boxes"] if b["vote"] is not None]
+    for content in ("screws", "rubber_bands"):
+        mine = [b for b in boxes if b["content"] == content]
+        out[f"mujoco_shake_{content}_voted_right"] = sum(b["vote"] == content for b in mine)
+        out[f"mujoco_shake_{content}_voted_empty"] = sum(b["vote"] == "empty" for b in mine)
+        out[f"mujoco_shake_{content}_boxes"] = len(mine)
+        out[f"mujoco_shake_{content}_window_accuracy"] = round(float(np.mean(
+            [b["shares"].get(content, 0.0) for b in mine])), 4) if mine else float("nan")
+        out[f"mujoco_shake_{content}_impacts_median"] = float(np.median(
+            [b["impacts"] for b in mine])) if mine else float("nan")
+        # The world's scripted impacts for the same fills (its default shake).
+        theirs = [b for b in wboxes if b["content"] == content]
+        out[f"mujoco_shake_world_{content}_voted_right"] = sum(b["vote"] == content
+                                                               for b in theirs)
+        out[f"mujoco_shake_world_{content}_impacts_median"] = float(np.median(
+            [len(BoxShake(content, items=b["items"]).events()["impact_times_s"])
+             for b in theirs])) if theirs else float("nan")
+    for mode, n in s["failure_modes"].items():
+        out[f"mujoco_shake_failed_{mode.replace(' ', '_')}"] = n
+    return out
+
+
 HOLD_TRIALS = 20
 
 
@@ -292,7 +333,11 @@ def run_bench() -> dict[str, float]:
     out.update(pinch_figures())
     out.update(cups_figures())
     out.update(hold_figures())
+    out.update(shake_figures())
     return out
+
+
+PARTS = {"shake": shake_figures}
 
 
 def run() -> dict[str, float]:
@@ -365,6 +410,48 @@ DESCRIPTION = {
                                      None),
     "mujoco_cups_world_success": ("the same recipe and seeds in today's virtual world, of "
                                   "36, in the same run", None),
+    "mujoco_shake_pick_success": ("shake-and-pick trials opening the box with the requested "
+                                  "content on the MuJoCo four-finger hand (contents free "
+                                  "bodies rattling in closed boxes; tasks/shake_pick.py, "
+                                  "today's world's shake classifier), of the paper's 56",
+                                  None),
+    "mujoco_shake_pick_world_success": ("the same recipe, classifier and seeds in today's "
+                                        "virtual world, of 56, in the same run", None),
+    "mujoco_shake_votes_correct": ("MuJoCo box votes (majority of the 10 Hz predictions "
+                                   "over a shake) naming the box's content", None),
+    "mujoco_shake_votes": ("MuJoCo boxes voted on (two per trial that read both)", None),
+    "mujoco_shake_screws_voted_right": ("MuJoCo screw boxes voted screws", None),
+    "mujoco_shake_screws_voted_empty": ("MuJoCo screw boxes voted empty", None),
+    "mujoco_shake_screws_boxes": ("MuJoCo screw boxes voted on", None),
+    "mujoco_shake_screws_window_accuracy": ("mean share of a MuJoCo screw box's 10 Hz "
+                                            "predictions that say screws", None),
+    "mujoco_shake_screws_impacts_median": ("median impacts of the screws on their box's "
+                                           "walls per shake in MuJoCo (new item-wall "
+                                           "contacts faster than 2 mm/s)", None),
+    "mujoco_shake_world_screws_voted_right": ("today's world's screw boxes voted screws",
+                                              None),
+    "mujoco_shake_world_screws_impacts_median": ("median scripted impacts per shake of the "
+                                                 "same screw boxes in today's world", None),
+    "mujoco_shake_rubber_bands_voted_right": ("MuJoCo rubber-band boxes voted rubber bands",
+                                              None),
+    "mujoco_shake_rubber_bands_voted_empty": ("MuJoCo rubber-band boxes voted empty", None),
+    "mujoco_shake_rubber_bands_boxes": ("MuJoCo rubber-band boxes voted on", None),
+    "mujoco_shake_rubber_bands_window_accuracy": ("mean share of a MuJoCo rubber-band box's "
+                                                  "predictions that say rubber bands", None),
+    "mujoco_shake_rubber_bands_impacts_median": ("median impacts of the rubber bands on "
+                                                 "their box's walls per shake in MuJoCo",
+                                                 None),
+    "mujoco_shake_world_rubber_bands_voted_right": ("today's world's rubber-band boxes voted "
+                                                    "rubber bands", None),
+    "mujoco_shake_world_rubber_bands_impacts_median": ("median scripted impacts per shake of "
+                                                       "the same rubber-band boxes in today's "
+                                                       "world", None),
+    "mujoco_shake_failed_arm_blocked": ("MuJoCo shake trials in which the arm stopped on a "
+                                        "box that a swing in the grip had moved (a nail on "
+                                        "its roof)", None),
+    "mujoco_shake_failed_not_opened": ("MuJoCo shake trials in which the chosen box was "
+                                       "right but the other box's tray was out too (it slid "
+                                       "while the box swung)", None),
     "mujoco_hold_held_fused": ("MuJoCo holds that kept the object (slid < 5 mm) with the "
                                "fused slip reflex (tasks/hold.py, Coulomb law), of 20: five "
                                "objects in turn, a sudden load of 0.2-0.8 x the mass", None),

@@ -7,10 +7,9 @@ from pathlib import Path
 import pytest
 
 import fingertip.tasks as tasks
-from fingertip.models.vibration.classify import VibrationClassifier
 from fingertip.sim.experiment import BOX_GRIP_Z_MM, run_shake, shake_table
 from fingertip.tasks.shake_pick import ShakeConfig, read_box, shake_and_pick
-from fingertip.sim.world.boxes import BOX_X_MM, make_box_world, shake_model_path
+from fingertip.sim.world.boxes import BOX_X_MM, make_box_world
 
 TRIALS = 8
 """Four a material, each pair in random order; `make bench` runs the paper's 56
@@ -18,13 +17,8 @@ TRIALS = 8
 
 
 @pytest.fixture(scope="module")
-def clf(tmp_path_factory):
-    mp = pytest.MonkeyPatch()
-    mp.setenv("FINGERTIP_TASKS_CACHE", str(tmp_path_factory.getbasetemp() / "tasks-models"))
-    try:
-        yield VibrationClassifier(shake_model_path(), kind="shake")
-    finally:
-        mp.undo()
+def clf(shake_clf):
+    return shake_clf
 
 
 def test_shake_and_pick_trials(clf):

@@ -3,9 +3,10 @@
 Each trial (seed ``s``), drawn as today's world draws its own (``sim/world/cups.py``): the
 rims' pitch (6.5-7.5 mm), each nested fit's cling (1.5-4 cup weights), how far each open
 finger's nail reaches over the rims (0.2-0.6 mm: the hand's aperture set to the stack, as
-the operator sets it), the start 2.5-4 mm above the top rim, the slide speed (6-15 mm/s) and
-the target (1-3 cups). The hand tares above the stack, the arm puts the nails at the start,
-and :func:`~fingertip.tasks.cups.unstack` counts the rims from the nail finger's piezo (f0)
+the operator sets it), the start 2.5-4 mm above the top rim, the slide speed (6-15 mm/s), the
+target (1-3 cups), and the nail finger's microphone: its gain (x0.6-1.5) and mains
+(50/60 Hz). The hand tares above the stack, the arm puts the nails at the start, and
+:func:`~fingertip.tasks.cups.unstack` counts the rims from the nail finger's piezo (f0)
 and the arm's logged height, grasps, lifts and separates.
 
 Success is judged from MuJoCo's ground truth, which the recipe never sees: the rims it
@@ -52,6 +53,9 @@ class CupTrial:
     above_mm: float
     speed_mm_s: float
     target: int
+    preamp_gain: float = 1.0
+    """Times the microphone's default gain."""
+    mains_hz: float = 50.0
 
     @classmethod
     def draw(cls, seed: int) -> CupTrial:
@@ -63,7 +67,11 @@ class CupTrial:
         task = np.random.default_rng(np.random.SeedSequence([seed, 0x7A6]))
         target = int(task.integers(1, 4))
         speed = float(task.uniform(6.0, 15.0))
-        return cls(seed, pitch, cling, overlap, above, speed, target)
+        # Drawn apart, so the stack and task draws stay those of earlier versions.
+        mic = np.random.default_rng(np.random.SeedSequence([seed, 0xA0D10]))
+        gain = float(mic.uniform(0.6, 1.5))
+        mains = float(mic.choice([50.0, 60.0]))
+        return cls(seed, pitch, cling, overlap, above, speed, target, gain, mains)
 
 
 def hand_config(speed_mm_s: float) -> CupConfig:
@@ -86,6 +94,9 @@ def set_up(tr: CupTrial) -> tuple[MujocoWorld, MujocoHand, MujocoArm]:
     seeds = {f: HAND_UNIT + k for k, f in enumerate(FINGERS)}
     levels = {f: "full" if f == "f0" else "strain" for f in FINGERS}
     world = MujocoWorld(scene, seeds, fidelity=levels)
+    chain = world.sensors["f0"].piezo.chain
+    chain.gain *= tr.preamp_gain
+    chain.mains_hz = tr.mains_hz
     arm = MujocoArm(world)
     hand = make_hand(world, seeds)                  # tares above the stack, fully open
     hand.step(start)                                # the aperture set to the stack

@@ -8,6 +8,10 @@ step. The excitation goes through the virtual fingertip's chain (:class:`AudioCh
 modes, piezo, high-pass, anti-alias; then its preamp, hum, noise, clipping and quantisation),
 the linear part as a convolution with the chain's impulse response whose tail carries into the
 next block.
+
+Other things the nail presses on can sound too (a held box's contents hitting its walls):
+each is a :class:`Path` into the same piezo, its force events and noise heard through that
+thing's own modes and low-pass (``AudioChain.response``) and added before the preamp.
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from .project import (
     half_sine,
     material_named,
     place,
+    smooth_noise,
 )
 from .texture import TextureStream
 
@@ -35,6 +40,60 @@ STICK_MM_S = 1.0
 """Slip slower than this is the soft contact's regularisation creep, not sliding: silent."""
 SKIN_TRANSMISSION = 0.4
 """A contact on the skin reaches the piezo weaker than one on the nail (the scenes' factor)."""
+
+
+class Path:
+    """Force at the nail coming through something it presses on, with that thing's modes
+    (``modes``: (Hz, damping, weight)) and low-pass: pulses (:meth:`event`) and a noise whose
+    level follows the pushed values (:meth:`noise`), rendered with the stream's blocks."""
+
+    def __init__(self, stream: PiezoStream, lowpass_hz: float | None, modes: tuple = (),
+                 noise_corner_hz: float = 4000.0) -> None:
+        self.fs, self._nfft = stream.fs, stream._nfft
+        ir = np.fft.irfft(stream.chain.response(np.fft.rfftfreq(IR_SAMPLES, 1 / self.fs),
+                                                lowpass_hz, modes), IR_SAMPLES)
+        self._spec = np.fft.rfft(ir, self._nfft)
+        self._tail = np.zeros(IR_SAMPLES - 1)
+        self._carry = np.zeros(0)
+        self._events: list[tuple[float, float, np.ndarray]] = []
+        self._levels: list[tuple[float, float]] = []
+        self._rng = stream._path_rng()
+        self.corner_hz = noise_corner_hz
+
+    def event(self, t: float, amplitude_n: float, kernel: np.ndarray) -> None:
+        """A force ``amplitude_n * kernel`` (kernel at the sound card's rate) from ``t``."""
+        self._events.append((t, amplitude_n, kernel))
+
+    def noise(self, t: float, level_n: float) -> None:
+        """The noise's rms force at time ``t`` (interpolated between pushes, in time order)."""
+        self._levels.append((t, level_n))
+
+    def render(self, k0: int, n: int) -> np.ndarray:
+        """Preamp-input volts of samples ``k0 .. k0 + n`` (called once per block, in order)."""
+        fs = self.fs
+        due = [e for e in self._events if e[0] * fs < k0 + n]
+        self._events = [e for e in self._events if e[0] * fs >= k0 + n]
+        longest = max([len(self._carry)] + [len(k) for _, _, k in due])
+        f = np.zeros(n + longest)
+        f[:len(self._carry)] += self._carry
+        for t, amp, kern in due:  # an event before this block starts at its start
+            f += place(len(f), np.array([max(0.0, t - k0 / fs)]), np.array([amp]), kern, fs)
+        self._carry = f[n:].copy()
+        f = f[:n]
+        if self._levels:
+            lt = np.array([v[0] for v in self._levels])
+            ts = (k0 + np.arange(n)) / fs
+            level = np.interp(ts, lt, [v[1] for v in self._levels], left=0.0, right=0.0)
+            if level.any():
+                f = f + level * smooth_noise(n, fs, self.corner_hz, self._rng)
+            keep = max(0, int(np.searchsorted(lt, (k0 + n) / fs, side="right")) - 1)
+            del self._levels[:keep]
+        if not f.any() and not self._tail.any():
+            return np.zeros(n)
+        v = np.fft.irfft(np.fft.rfft(f, self._nfft) * self._spec, self._nfft)
+        v[:len(self._tail)] += self._tail
+        self._tail = v[n:n + len(self._tail)].copy()
+        return v[:n]
 
 
 @dataclass
@@ -73,6 +132,19 @@ class PiezoStream:
         self._impacts: list[tuple[float, float, float]] = []
         self.next_sample = 0
         self.blocks: list[Block] = []
+        self.paths: list[Path] = []
+
+    def add_path(self, lowpass_hz: float | None, modes: tuple = ()) -> Path:
+        """A new :class:`Path` into this piezo (events and noise through other modes)."""
+        self.paths.append(Path(self, lowpass_hz, modes))
+        return self.paths[-1]
+
+    def _path_rng(self) -> np.random.Generator:
+        # Its own stream (not spawned from the textures' sequence: their sounds stay as
+        # they were in scenes without paths).
+        ss = self._tex_ss
+        return np.random.default_rng(np.random.SeedSequence(
+            ss.entropy, spawn_key=(*ss.spawn_key, 0xB0C5, len(self.paths))))
 
     # --- input from the physics steps ------------------------------------------------------
 
@@ -149,7 +221,10 @@ class PiezoStream:
         v_in = np.fft.irfft(np.fft.rfft(excite, self._nfft) * self._ir_spec, self._nfft)
         v_in[:len(self._tail)] += self._tail
         self._tail = v_in[n:n + len(self._tail)].copy()
-        out = self.chain.finish(v_in[:n].copy(), k0, self._rng).samples
+        v_in = v_in[:n].copy()
+        for path in self.paths:
+            v_in += path.render(k0, n)
+        out = self.chain.finish(v_in, k0, self._rng).samples
         self.next_sample = k0 + n
         # Keep the last step before the next block: interpolation needs it.
         keep = max(0, int(np.searchsorted(t, (k0 + n) / fs, side="right")) - 1)

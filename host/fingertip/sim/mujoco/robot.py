@@ -69,6 +69,7 @@ class MujocoWorld:
         self._arm_z = int(self.m.jnt_qposadr[self.m.actuator_trnid[ARM_ACTUATORS[2], 0]])
         self.slide: tuple[float, float] | None = None
         self.shake: tuple[float, float, float, float, float] | None = None
+        self.x_return: tuple[float, float] | None = None
         self.z_log: list[tuple[float, float]] = []
         """(time, the arm's measured height in mm): what a robot's joint encoders log."""
         self.latest: dict[str, object] = {}
@@ -96,10 +97,18 @@ class MujocoWorld:
             t0, x0, amp, hz, dur = self.shake
             u = self.d.time - t0
             if u >= dur:
-                self.arm_target[0] = x0
+                # The paper's 5.6 s end near a peak: the arm comes back to the centre at the
+                # shake's own peak speed (a 50 mm jump of the servo's target would fling it).
                 self.shake = None
+                self.x_return = (x0, amp * 2 * math.pi * hz)
             else:
                 self.arm_target[0] = x0 + amp * 1e-3 * math.sin(2 * math.pi * hz * u)
+        if self.x_return is not None:
+            x0, speed = self.x_return
+            x = self.arm_target[0]
+            self.arm_target[0] = x + math.copysign(min(abs(x0 - x), speed * 1e-3 * dt), x0 - x)
+            if abs(x0 - self.arm_target[0]) < 1e-12:
+                self.x_return = None
         self._apply()
 
     def step(self) -> None:
@@ -204,18 +213,52 @@ class MujocoArm(RobotArm):
     SETTLE_MM = 0.2
     SETTLE_TIMEOUT_S = 5.0
 
-    def __init__(self, world: MujocoWorld) -> None:
+    STALL_MM = 3.0
+    STALL_S = 0.2
+
+    def __init__(self, world: MujocoWorld, travel_z_mm: float | None = None,
+                 speed_mm_s: float | None = None) -> None:
+        """``travel_z_mm``: a move with a horizontal part goes up to this height first, across,
+        then down (as a robot's planner avoids what stands between two places); None: one
+        straight move. ``speed_mm_s``: moves go along a straight line at this speed and end
+        where the arm stops within ``STALL_MM`` of the goal (pressing what it holds on the
+        table, as a robot's compliant servo does); None: the servos' targets jump to the goal
+        and the move ends within ``SETTLE_MM`` of it."""
         self.world = world
+        self.travel_z_mm = travel_z_mm
+        self.speed_mm_s = speed_mm_s
         self._qadr = [int(world.m.jnt_qposadr[world.m.actuator_trnid[a, 0]])
                       for a in ARM_ACTUATORS]
 
     def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
+        here = self.world.arm_target * 1e3
+        if self.travel_z_mm is not None and math.hypot(x_mm - here[0], y_mm - here[1]) > 1.0:
+            top = max(self.travel_z_mm, z_mm)
+            self._move(here[0], here[1], top)
+            self._move(x_mm, y_mm, top)
+        self._move(x_mm, y_mm, z_mm)
+
+    def _move(self, x_mm: float, y_mm: float, z_mm: float) -> None:
         w = self.world
-        w.arm_target[:] = np.array([x_mm, y_mm, z_mm]) * 1e-3
-        w.slide = w.shake = None
+        goal = np.array([x_mm, y_mm, z_mm]) * 1e-3
+        w.slide = w.shake = w.x_return = None
+        if self.speed_mm_s is not None:
+            dt = w.m.opt.timestep
+            while (gap := float(np.linalg.norm(goal - w.arm_target))) > 1e-9:
+                w.arm_target += (goal - w.arm_target) * min(1.0, self.speed_mm_s * 1e-3 * dt / gap)
+                w.step()
+        w.arm_target[:] = goal
         w._apply()
         t_end = w.d.time + self.SETTLE_TIMEOUT_S
-        while np.abs(self._actual() - w.arm_target).max() * 1e3 > self.SETTLE_MM:
+        still, last = 0.0, self._actual()
+        while (err := np.abs(self._actual() - w.arm_target).max() * 1e3) > self.SETTLE_MM:
+            if self.speed_mm_s is not None and err < self.STALL_MM:
+                now = self._actual()
+                moved = np.abs(now - last).max() * 1e3
+                last = now
+                still = still + w.m.opt.timestep if moved < 1e-3 else 0.0
+                if still >= self.STALL_S:
+                    return
             if w.d.time > t_end:
                 raise RuntimeError(f"the arm did not reach {x_mm, y_mm, z_mm} mm")
             w.step()
@@ -240,12 +283,13 @@ class MujocoArm(RobotArm):
         w.shake = (w.d.time, float(w.arm_target[0]), amplitude_mm, frequency_hz, duration_s)
 
     def moving(self) -> bool:
-        return self.world.slide is not None or self.world.shake is not None
+        w = self.world
+        return w.slide is not None or w.shake is not None or w.x_return is not None
 
     def stop(self) -> None:
         """Hold where the arm is now."""
         w = self.world
-        w.slide = w.shake = None
+        w.slide = w.shake = w.x_return = None
         w.arm_target[:] = self._actual()
         w._apply()
 

@@ -140,6 +140,9 @@ class FingertipSensor:
         self._contact = False
         self._gap_since: float | None = None
         self._held = Touch()
+        self.touch = Touch()
+        """This step's deepest contact (``full`` only): what other sounds reach the nail
+        through (:mod:`.box_sound`)."""
         self._normal = 0.0
         self._last_make = (0.0, True)
 
@@ -161,7 +164,7 @@ class FingertipSensor:
 
     def _sound(self, touching: bool) -> None:
         t = self.d.time
-        touch = self.reader.touch() if touching else Touch()
+        touch = self.touch = self.reader.touch() if touching else Touch()
         if touch.found and touch.normal_n > 0:
             if not self._contact:  # a make after a real separation
                 amp = IMPACT_N_PER_MM_S * touch.approach_mm_s * (1.0 if touch.nail else 0.4)

@@ -120,6 +120,50 @@ class CupStackSlide(Scene):
 
 BOX_CONTENTS = ("screws", "rubber_bands", "empty")
 
+# How a box's contents sound at a nail pressed on its wall, shared with the MuJoCo boxes
+# (``sim/mujoco/box_sound.py``), whose impacts come from the physics instead of a script.
+ITEM_MASS_KG = {"screws": 0.002, "rubber_bands": 0.001}
+BOX_WALL_MODES = ((380.0, 0.12, 0.6), (950.0, 0.1, 0.3))
+"""Cardboard box walls between the contents and the nail (Hz, damping, weight)."""
+BOX_LOWPASS_HZ = {"screws": 9000.0, "rubber_bands": 2500.0, "empty": 9000.0}
+WALL_TO_NAIL = 0.08
+"""Share of an item's impact force on the wall that reaches the nail (at a 1.5 N grip)."""
+SCREW_PULSE_S = 2.5e-4
+BAND_PULSE_S = (4e-3, 8e-3)
+"""A rubber band's thud lasts this long (one duration drawn per shake)."""
+SCREW_RING_HZ = (3500.0, 11000.0)
+"""Each screw rings at two frequencies drawn in this range (steel: very light damping)."""
+SCREW_RING_ZETA = 0.004
+SCREW_RING_S = 0.06
+SCREW_RING_GAIN = (0.25, 0.6)
+"""The ring's share of the impact pulse, and its second mode's share of the first."""
+RATTLE_PULSE_S = 1.5e-4
+RATTLE_N = 0.004
+"""A screw rolling on the box's floor: ticks of this size (x grip, log-normal spread 0.5)."""
+CREAK_N = 2e-4
+"""The grip's faint creak at the box's peak acceleration (x grip)."""
+
+
+def grip_transmission(grip_n: float) -> float:
+    """How a nail's grip force scales what it hears through the wall (1 at 1.5 N)."""
+    return (grip_n / 1.5) ** 0.7
+
+
+def impact_pulse_n(content: str, speeds: np.ndarray, duration_s: float,
+                   grip: float) -> np.ndarray:
+    """Peak force at the nail of items hitting the wall at ``speeds`` (m/s): the item's
+    momentum delivered over a half sine of ``duration_s``, times the wall's transmission."""
+    return math.pi * ITEM_MASS_KG[content] * speeds / (2 * duration_s) * WALL_TO_NAIL * grip
+
+
+def screw_ring(ring_hz: np.ndarray, fs: int) -> np.ndarray:
+    """Ring kernels of screws with two modes each (``ring_hz`` (M, 2)), unit first mode."""
+    length = int(SCREW_RING_S * fs)
+    m = len(ring_hz)
+    return damped_sine(ring_hz[:, 0], np.full(m, SCREW_RING_ZETA), fs, length) \
+        + SCREW_RING_GAIN[1] * damped_sine(ring_hz[:, 1], np.full(m, SCREW_RING_ZETA), fs,
+                                           length)
+
 
 @dataclass(frozen=True)
 class BoxShake(Scene):
@@ -200,37 +244,31 @@ class BoxShake(Scene):
         imp = self._impacts
         rng = self.rng(1)
         t = np.arange(n) / fs
-        grip = (self.grip_n / 1.5) ** 0.7
+        grip = grip_transmission(self.grip_n)
         # The grip creaks faintly where the box accelerates most (all contents, and empty).
-        creak = smooth_noise(n, fs, 4000.0, rng) * 2e-4 * grip \
+        creak = smooth_noise(n, fs, 4000.0, rng) * CREAK_N * grip \
             * (np.abs(self.acceleration(t)) / (self.amplitude_m * (2 * np.pi
                                                                    * self.frequency_hz) ** 2))
         f = creak
         times, speeds = imp["times"], imp["speeds"]
-        modes: tuple = ((380.0, 0.12, 0.6), (950.0, 0.1, 0.3))  # cardboard box walls
-        lowpass = 9000.0
+        modes: tuple = BOX_WALL_MODES
+        lowpass = BOX_LOWPASS_HZ["screws"]
         if self.content == "screws" and len(times):
-            mass = 0.002
-            pulse = math.pi * mass * speeds / (2 * 2.5e-4) * 0.08 * grip
-            f = f + place(n, times, pulse, half_sine(2.5e-4, fs), fs)
-            # Each screw rings at its own frequencies (steel: very light damping).
+            pulse = impact_pulse_n("screws", speeds, SCREW_PULSE_S, grip)
+            f = f + place(n, times, pulse, half_sine(SCREW_PULSE_S, fs), fs)
             k = self.n_items
-            ring_f = rng.uniform(3500, 11000, (k, 2))
-            length = int(0.06 * fs)
-            kern = damped_sine(ring_f[imp["item"], 0], np.full(len(times), 0.004), fs, length) \
-                + 0.6 * damped_sine(ring_f[imp["item"], 1], np.full(len(times), 0.004), fs,
-                                    length)
-            f = f + place(n, times, 0.25 * pulse, kern, fs)
+            ring_f = rng.uniform(*SCREW_RING_HZ, (k, 2))
+            f = f + place(n, times, SCREW_RING_GAIN[0] * pulse,
+                          screw_ring(ring_f[imp["item"]], fs), fs)
             # Rattle: screws rolling on the floor of the box between impacts.
             rate = 40.0 * k / 8
             count = rng.poisson(rate * self.duration)
             tr = rng.uniform(0, self.duration, count)
-            ar = 0.004 * grip * np.exp(0.5 * rng.standard_normal(count))
-            f = f + place(n, tr, ar, half_sine(1.5e-4, fs), fs)
+            ar = RATTLE_N * grip * np.exp(0.5 * rng.standard_normal(count))
+            f = f + place(n, tr, ar, half_sine(RATTLE_PULSE_S, fs), fs)
         elif self.content == "rubber_bands" and len(times):
-            mass = 0.001
-            dur = rng.uniform(4e-3, 8e-3)
-            pulse = math.pi * mass * speeds / (2 * dur) * 0.08 * grip
+            dur = rng.uniform(*BAND_PULSE_S)
+            pulse = impact_pulse_n("rubber_bands", speeds, dur, grip)
             f = f + place(n, times, pulse, half_sine(dur, fs), fs)
-            lowpass = 2500.0
+            lowpass = BOX_LOWPASS_HZ["rubber_bands"]
         return [Excitation(f, 0, lowpass, modes)]

@@ -1,0 +1,83 @@
+"""Shake-and-pick (tasks/shake_pick.py unchanged) on the MuJoCo hand over two closed boxes
+whose contents are free bodies; `make bench` runs the paper's 56 trials
+(`mujoco_shake_pick_success`, beside today's world's)."""
+from __future__ import annotations
+
+import numpy as np
+
+from fingertip.sim.mujoco.box_sound import BoxSound
+from fingertip.sim.mujoco.boxes import BoxFill, box_pair
+from fingertip.sim.mujoco.robot import MujocoWorld
+from fingertip.sim.mujoco.shake_model import vote
+from fingertip.sim.mujoco.boxes import BOX_X
+from fingertip.sim.mujoco.shake_trials import (
+    GRIP_Z_MM,
+    TRAY_OPEN_MM,
+    ShakeTrial,
+    hand_config,
+    set_up,
+    targets,
+)
+from fingertip.tasks.shake_pick import open_box, read_box
+from fingertip.sim.world.boxes import make_box_world
+
+
+def _jolted(speed_m_s: float) -> BoxSound:
+    scene = box_pair((BoxFill("screws", 8), BoxFill("rubber_bands", 10)), seed=3)
+    seeds = {f: 100 + k for k, f in enumerate(("f0", "f1", "f2", "f3"))}
+    world = MujocoWorld(scene, seeds, fidelity={"f0": "full", "f1": "wrench",
+                                                 "f2": "wrench", "f3": "wrench"})
+    sound = BoxSound(world.m, world.d, scene.info["boxes"], world.sensors["f0"], 3)
+    world.updates.append(sound.update)
+    m, d = world.m, world.d
+    box0 = scene.info["boxes"][0]["body"]
+    d.qvel[m.jnt_dofadr[m.body_jntadr[box0]]] = speed_m_s      # slid across the table
+    t_end = d.time + 0.3
+    while d.time < t_end:
+        world.step()
+    return sound
+
+
+def test_the_contents_hit_the_walls_of_a_jolted_box_and_rest_in_the_other():
+    sound = _jolted(0.3)
+    screws, bands = sound.boxes
+    assert screws.impacts >= 8                     # every screw met the leading wall
+    assert bands.impacts == 0                      # resting contents make no impacts
+    # No fingertip touches a box: the nail hears none of it.
+    assert sound.heard_by() == (-1, 0.0)
+    assert not screws.path._events and not bands.path._events
+
+
+def test_the_trials_take_todays_worlds_draws_for_the_same_seed():
+    for seed in (0, 5):
+        tr, (world, _, _) = ShakeTrial.draw(seed), make_box_world(seed)
+        assert [(f.content, f.items) for f in tr.fills] == [(b.content, b.items)
+                                                             for b in world.boxes]
+        assert tr.gaps_mm == world.boxes[0].gaps_mm
+    assert targets(8, 0).count("screws") == 4
+
+
+def test_the_recipe_hears_the_screws_and_opens_their_box_alone(shake_clf):
+    # One box of a trial (a whole trial shakes both: twice as long): seed 1 has 12 screws
+    # at +80 mm, read by the recipe's read_box and opened by its open_box.
+    tr = ShakeTrial.draw(1)
+    assert [(f.content, f.items) for f in tr.fills] == [("rubber_bands", 8), ("screws", 12)]
+    world, hand, arm, sound = set_up(tr)
+    cfg = hand_config()
+    where = (BOX_X[1] * 1e3, 0.0, GRIP_Z_MM)
+    r = read_box(hand, arm, shake_clf, where, cfg)
+    assert r.failure is None and r.predictions >= 46            # 10 Hz over 5.6 s
+    assert r.vote == "screws"
+    screws = sound.boxes[1]
+    assert screws.impacts > 20 and screws.ticks > 20             # the screws rattle
+    assert sound.boxes[0].impacts == 0                           # the other box rests
+    assert open_box(hand, arm, where, cfg)
+    trays = [world.d.qpos[b["tray_qpos"]] * 1e3 for b in world.scene.info["boxes"]]
+    assert trays[1] >= TRAY_OPEN_MM > 1.0 > trays[0]
+
+
+def test_a_vote_over_silence_is_none(shake_clf):
+    from fingertip.tasks.interfaces import AudioBlock
+
+    v, shares = vote(shake_clf, AudioBlock(np.zeros(0, np.float32), 44100.0, 0.0), 0.1)
+    assert v is None and shares == {}
