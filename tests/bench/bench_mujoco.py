@@ -23,10 +23,11 @@
   with the same seeds, in this run.
 - ``mujoco_shake_pick_success`` (of the paper's 56) on the four-finger hand over two closed
   boxes whose contents (free bodies) rattle in MuJoCo, with the recipe of
-  ``tasks/shake_pick.py`` and today's world's shake classifier (trained on its simulated
-  shakes), beside ``mujoco_shake_pick_world_success``, today's world's 56 trials with the
-  same seeds; the classifier's box votes on the MuJoCo shakes, per content, and the contents'
-  wall impacts per shake in both worlds (the domain gap's figures; docs/mujoco.md).
+  ``tasks/shake_pick.py`` and a shake classifier trained the same way on shakes recorded on
+  MuJoCo (``sim/mujoco/shake_model.py``; today's world's classifier votes 34 of 96 MuJoCo
+  boxes right: docs/mujoco.md), beside ``mujoco_shake_pick_world_success``, today's world's
+  56 trials with the same seeds and its own classifier; the box votes on the MuJoCo shakes,
+  per content, and the contents' wall impacts per shake in both worlds.
 - ``mujoco_hold_held_fused`` / ``_none`` (of 20): the slip-reflex hold of ``tasks/hold.py``
   on the sideways gripper, a load of 0.2-0.8 x the object's mass hung on it in 5 ms, with
   the fused reflex and without, beside today's world's same protocol
@@ -413,10 +414,12 @@ DESCRIPTION = {
     "mujoco_shake_pick_success": ("shake-and-pick trials opening the box with the requested "
                                   "content on the MuJoCo four-finger hand (contents free "
                                   "bodies rattling in closed boxes; tasks/shake_pick.py, "
-                                  "today's world's shake classifier), of the paper's 56",
+                                  "the shake classifier trained on MuJoCo shakes), of the "
+                                  "paper's 56",
                                   None),
-    "mujoco_shake_pick_world_success": ("the same recipe, classifier and seeds in today's "
-                                        "virtual world, of 56, in the same run", None),
+    "mujoco_shake_pick_world_success": ("the same recipe and seeds in today's virtual "
+                                        "world with its own classifier, of 56, in the same "
+                                        "run", None),
     "mujoco_shake_votes_correct": ("MuJoCo box votes (majority of the 10 Hz predictions "
                                    "over a shake) naming the box's content", None),
     "mujoco_shake_votes": ("MuJoCo boxes voted on (two per trial that read both)", None),
