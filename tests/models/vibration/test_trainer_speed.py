@@ -11,7 +11,8 @@ import sys
 import numpy as np
 import pytest
 
-from fingertip.models.vibration.bank import build_bank, candidate_windows
+from fingertip.models.vibration.augment import AugmentConfig
+from fingertip.models.vibration.bank import build_bank, candidate_windows, with_copies
 from fingertip.models.vibration.candidates import CANDIDATES, TIE, candidates
 from fingertip.models.vibration.classify import load_folder, stratified_folds
 from fingertip.models.vibration.cross_validation import (
@@ -71,6 +72,25 @@ def test_the_shared_features_equal_each_candidates_own(setup_ds):
         for x, y in zip(shared.test, own.test, strict=True):
             np.testing.assert_array_equal(x.t_end, y.t_end)
             np.testing.assert_array_equal(x.growing, y.growing)
+
+
+def test_the_augmented_copies_windows_equal_each_candidates_own(setup_ds):
+    """The shared features of the augmented copies (only their windows from the start
+    computed) equal each candidate's own pipeline's windows of the same copies, every
+    window computed and those from the start kept."""
+    ds, setup = setup_ds
+    cands = candidates(setup, ("baseline", "mlp", "svm"))
+    aug = AugmentConfig()
+    bank = with_copies(build_bank(setup, ds, cands, "clean"), ds, aug, 3, cands)
+    for cand in cands:
+        shared, own = bank.view(cand), candidate_windows(cand, ds, aug, seed=3)
+        assert sum(len(w) for w in shared.train) > sum(len(w) for w in
+                                                       build_bank(setup, ds, cands, "c")
+                                                       .view(cand).train)
+        for x, y in zip(shared.train, own.train, strict=True):
+            assert x.inputs.shape == y.inputs.shape, cand.name
+            np.testing.assert_allclose(x.inputs, y.inputs, atol=2e-3, err_msg=cand.name)
+            np.testing.assert_array_equal(x.t_end, y.t_end)
 
 
 def test_the_ensembles_members_are_reused_and_equal_refits(setup_ds):

@@ -91,9 +91,9 @@ def p90_pipeline(setup: Setup) -> FeaturePipeline:
 
 
 def _shared(pipe: FeaturePipeline, p90: FeaturePipeline, rec: Recording, training: bool,
-            power: np.ndarray) -> Windows:
-    w = pipe.windows(rec, training, power)
-    q = p90.windows(rec, training, power[:, :p90.cfg.n_bands])
+            power: np.ndarray, prefixes: bool = False) -> Windows:
+    w = pipe.windows(rec, training, power, prefixes)
+    q = p90.windows(rec, training, power[:, :p90.cfg.n_bands], prefixes)
     return replace(w, inputs=np.hstack([w.inputs, q.inputs]))
 
 
@@ -177,9 +177,11 @@ def with_copies(bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
         own = [[bank.own[c.name].train[i]] for c in others]
         for r in copies:
             power = pipe.power(r)
-            parts.append(_prefixes(_shared(pipe, bank.p90, r, True, power)))
+            # only the windows kept are computed (one of up to three per length)
+            parts.append(_prefixes(_shared(pipe, bank.p90, r, True, power, prefixes=True)))
             for k, c in enumerate(others):
-                own[k].append(_prefixes(c.pipe.windows(r, True, power[:, :nb])))
+                own[k].append(_prefixes(c.pipe.windows(r, True, power[:, :nb],
+                                                       prefixes=True)))
         return _concat(parts), [_concat(v) for v in own]
 
     got = _per_recording("copies", one, len(ds.items), jobs, done)

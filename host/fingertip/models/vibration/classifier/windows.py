@@ -77,16 +77,19 @@ class FeaturePipeline:
         return (self.spec.frames - 1) * self.cfg.hop_s + self.cfg.win_s
 
     def windows(self, rec: Recording, training: bool = False,
-                power: np.ndarray | None = None) -> Windows:
+                power: np.ndarray | None = None, prefixes: bool = False) -> Windows:
         """The windows of ``rec``; ``training``: for a growing model, the windows it is
         trained on (:func:`~fingertip.models.vibration.anytime.training_bounds`) instead of the
         ones it answers on. ``power``: ``rec``'s band power under this pipeline's
-        features, computed already (:meth:`power`; a trainer shares it between uses)."""
+        features, computed already (:meth:`power`; a trainer shares it between uses).
+        ``prefixes``: of a growing model's windows, only those from the start (what it
+        answers on at run time; an augmented copy's training windows), not computed at
+        all for the others."""
         cfg, sp = self.cfg, self.spec
         if power is None:
             power = self.power(rec)
         if sp.input == "growing":
-            return self._growing(rec, power, training)
+            return self._growing(rec, power, training, prefixes)
         starts = window_starts(len(power), sp.frames, sp.step_s, cfg.hop_s)
         frames = sp.frames
         if not len(starts) and sp.input == "pooled" and sp.min_frames \
@@ -103,12 +106,15 @@ class FeaturePipeline:
         """(frames, bands) band power of ``rec`` under this pipeline's features."""
         return self.spectro(rec.samples, rec.rate, rec.source or "the recording")
 
-    def _growing(self, rec: Recording, power: np.ndarray, training: bool) -> Windows:
+    def _growing(self, rec: Recording, power: np.ndarray, training: bool,
+                 prefixes: bool = False) -> Windows:
         from ..anytime import growing_bounds, span_features, training_bounds
 
         cfg, sp = self.cfg, self.spec
         bounds = training_bounds if training else growing_bounds
         starts, ends = bounds(len(power), sp.frames, sp.min_frames or 1, sp.step_s / cfg.hop_s)
+        if prefixes:
+            starts, ends = starts[starts == 0], ends[starts == 0]
         inputs = span_features(power, starts, ends, cfg.floor_db, sp.stats, cfg.split)
         t0 = starts * cfg.hop_s
         t1 = (ends - 1) * cfg.hop_s + cfg.win_s
