@@ -159,7 +159,10 @@ class DeviceCommands:
             if not mask:
                 raise BadArgumentError("tare needs at least one channel (an empty list was given)")
         s = self.settings
-        wait = samples * s.decimation / s.rate_sps * 1.6 + 0.5
+        # The device answers once it has averaged the samples; on top of that, the answer's
+        # own allowance (command_timeout, 0.5 s by default) rather than a fixed one, so a
+        # caller who allows for a slow link or a busy host gets it here too.
+        wait = samples * s.decimation / s.rate_sps * 1.6 + self.command_timeout
         self._command(Tare(0, mask, samples), timeout=wait, retries=0)
         offsets = self.get_info().tare_offsets
         self.settings.offsets = offsets

@@ -99,7 +99,7 @@ def test_speed_alone_is_tried_when_the_full_draw_is_rejected(folder, tmp_path, m
     import fingertip.models.vibration.augment_trial as augment_trial
 
     seen = []
-    real = augment_trial._trial
+    real = augment_trial.trial_one
 
     def rejecting_full(cand, bank, ds, cfg, *args):
         one, won = real(cand, bank, ds, cfg, *args)
@@ -109,7 +109,7 @@ def test_speed_alone_is_tried_when_the_full_draw_is_rejected(folder, tmp_path, m
             won = None
         return one, won
 
-    monkeypatch.setattr(augment_trial, "_trial", rejecting_full)
+    monkeypatch.setattr(augment_trial, "trial_one", rejecting_full)
     full = AugmentConfig(copies=1)
     aug = train_material(folder, tmp_path / "s", folds=2, plot=False, models=("linear",),
                          augment=full).report["augmentation"]

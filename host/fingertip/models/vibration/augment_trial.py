@@ -51,8 +51,8 @@ def try_augmentation(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentC
     for cfg, what in ((augment, "augmentation"), (augment.speed_only(), "speed augmentation")):
         if tried and (cfg == augment or not augment.p_speed):
             break  # nothing but speed (already tried), or speed turned off by the caller
-        one, won = _trial(cand, bank, ds, cfg, seed, labels, folds, base, clean, what, jobs,
-                          memo, progress)
+        one, won = trial_one(cand, bank, ds, cfg, seed, labels, folds, base, clean, what,
+                             jobs, memo, progress)
         tried.append(one)
         if one["adopted"]:
             break
@@ -63,11 +63,13 @@ def try_augmentation(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentC
     return out, won
 
 
-def _trial(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
-           labels: np.ndarray, folds: list[np.ndarray], base: float,
-           clean: dict[int, Answers], what: str, jobs: int, memo: FitMemo | None,
-           progress: Callable[[str, int], Callable[[], None]] | None
-           ) -> tuple[dict, tuple[Bank, dict[int, Answers]] | None]:
+def trial_one(cand: Candidate, bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
+              labels: np.ndarray, folds: list[np.ndarray], base: float,
+              clean: dict[int, Answers], what: str, jobs: int, memo: FitMemo | None,
+              progress: Callable[[str, int], Callable[[], None]] | None
+              ) -> tuple[dict, tuple[Bank, dict[int, Answers]] | None]:
+    """One draw (``augment``) cross-validated against the answers without it: the report's
+    entry, and the features and answers with the copies when it is adopted (None otherwise)."""
     out: dict = {"settings": augment.to_dict(), "what": what}
     done = progress(f"{what}: copies", len(ds.items)) if progress else None
     more = with_copies(bank, ds, augment, seed, [cand], done, jobs)
