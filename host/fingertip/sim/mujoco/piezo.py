@@ -42,6 +42,23 @@ SKIN_TRANSMISSION = 0.4
 """A contact on the skin reaches the piezo weaker than one on the nail (the scenes' factor)."""
 
 
+class BlockConvolver:
+    """Block by block convolution with an impulse response of ``IR_SAMPLES`` (overlap-add
+    at ``nfft`` points); each block's tail carries into the next."""
+
+    def __init__(self, ir: np.ndarray, nfft: int) -> None:
+        self.nfft = nfft
+        self._spec = np.fft.rfft(ir, nfft)
+        self.tail = np.zeros(len(ir) - 1)
+
+    def block(self, x: np.ndarray, n: int) -> np.ndarray:
+        """The ``n`` output samples of input block ``x`` (longer inputs ring into the tail)."""
+        v = np.fft.irfft(np.fft.rfft(x, self.nfft) * self._spec, self.nfft)
+        v[:len(self.tail)] += self.tail
+        self.tail = v[n:n + len(self.tail)].copy()
+        return v[:n]
+
+
 class Path:
     """Force at the nail coming through something it presses on, with that thing's modes
     (``modes``: (Hz, damping, weight)) and low-pass: pulses (:meth:`event`) and a noise whose
@@ -49,11 +66,10 @@ class Path:
 
     def __init__(self, stream: PiezoStream, lowpass_hz: float | None, modes: tuple = (),
                  noise_corner_hz: float = 4000.0) -> None:
-        self.fs, self._nfft = stream.fs, stream._nfft
+        self.fs = stream.fs
         ir = np.fft.irfft(stream.chain.response(np.fft.rfftfreq(IR_SAMPLES, 1 / self.fs),
                                                 lowpass_hz, modes), IR_SAMPLES)
-        self._spec = np.fft.rfft(ir, self._nfft)
-        self._tail = np.zeros(IR_SAMPLES - 1)
+        self._conv = BlockConvolver(ir, stream.nfft)
         self._carry = np.zeros(0)
         self._events: list[tuple[float, float, np.ndarray]] = []
         self._levels: list[tuple[float, float]] = []
@@ -88,12 +104,9 @@ class Path:
                 f = f + level * smooth_noise(n, fs, self.corner_hz, self._rng)
             keep = max(0, int(np.searchsorted(lt, (k0 + n) / fs, side="right")) - 1)
             del self._levels[:keep]
-        if not f.any() and not self._tail.any():
+        if not f.any() and not self._conv.tail.any():
             return np.zeros(n)
-        v = np.fft.irfft(np.fft.rfft(f, self._nfft) * self._spec, self._nfft)
-        v[:len(self._tail)] += self._tail
-        self._tail = v[n:n + len(self._tail)].copy()
-        return v[:n]
+        return self._conv.block(f, n)
 
 
 @dataclass
@@ -117,12 +130,11 @@ class PiezoStream:
         self._rng, self._tex_ss = np.random.default_rng(ss.spawn(1)[0]), ss
         nfft = IR_SAMPLES
         self.ir = np.fft.irfft(self.chain.response(np.fft.rfftfreq(nfft, 1 / self.fs)), nfft)
-        self._nfft = good_fft_size(block + nfft - 1)
-        self._ir_spec = np.fft.rfft(self.ir, self._nfft)
+        self.nfft = good_fft_size(block + nfft - 1)
+        self._conv = BlockConvolver(self.ir, self.nfft)
         self.default_material = material_named(default_material)
         self._textures: dict[str, TextureStream] = {}
         self._lowpass: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-        self._tail = np.zeros(nfft - 1)
         self._impact_carry = np.zeros(0)
         self._t: list[float] = []
         self._v: list[float] = []
@@ -218,10 +230,7 @@ class PiezoStream:
             if v.any() or tex.carry.any():
                 excite += self._soft(mat, tex.block(v, normal) * gain)
         excite += self._impact_block(k0, n)
-        v_in = np.fft.irfft(np.fft.rfft(excite, self._nfft) * self._ir_spec, self._nfft)
-        v_in[:len(self._tail)] += self._tail
-        self._tail = v_in[n:n + len(self._tail)].copy()
-        v_in = v_in[:n].copy()
+        v_in = self._conv.block(excite, n).copy()
         for path in self.paths:
             v_in += path.render(k0, n)
         out = self.chain.finish(v_in, k0, self._rng).samples
