@@ -168,15 +168,11 @@ static void cmd_time(sim_t *s, cmd_t *c)
 {
     begin(s, c->name, true);
     put_time(s);
-    /* The host's CLOCK_MONOTONIC when the simulated time was read (the clock of Python's
-     * time.monotonic()): pairs a simulated instant with a host instant without the reply's
-     * own travel time, which a loaded machine stretches. */
-    jfix(&s->out, "host_s", sim_real_seconds(), 6);
-    /* Throttled: the host time this simulated instant is due at by the pacing (the ideal
-     * crystal's time; simavr runs up to a millisecond ahead of it, behind when starved). */
+    /* Throttled: the host time (CLOCK_MONOTONIC, Python's time.monotonic()) this simulated
+     * instant is due at by the pacing: the ideal crystal's time, free of the reply's travel
+     * time (simavr runs up to a millisecond ahead of it, behind when starved). */
     if (s->throttle > 0)
-        jfix(&s->out, "due_s",
-             s->thr_real0 + (double)(sim_now(s) - s->thr_cyc0) / (double)s->f_cpu / s->throttle, 6);
+        jfix(&s->out, "due_s", sim_due_seconds(s), 6);
     jbool(&s->out, "held", s->run == RUN_HELD);
     jnum(&s->out, "throttle", s->throttle);
     jend(&s->out);

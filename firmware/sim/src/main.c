@@ -297,13 +297,18 @@ static void run_slice(sim_t *s)
         control_until_reached(s);
 }
 
+double sim_due_seconds(const sim_t *s)
+{
+    double sim_s = (double)(sim_now(s) - s->thr_cyc0) / (double)s->f_cpu;
+    return s->thr_real0 + sim_s / s->throttle;
+}
+
 /* Throttled: wait (serving I/O) until real time catches up with simulated time. */
 static void throttle_wait(sim_t *s)
 {
     if (s->throttle <= 0)
         return;
-    double sim_s = (double)(sim_now(s) - s->thr_cyc0) / (double)s->f_cpu;
-    double ahead = s->thr_real0 + sim_s / s->throttle - sim_real_seconds();
+    double ahead = sim_due_seconds(s) - sim_real_seconds();
     if (ahead > 0.001)
         service(s, (int)(ahead * 1000.0));
 }

@@ -116,6 +116,8 @@ static inline double sim_cycles_to_us(const sim_t *s, uint64_t cycles)
 }
 
 double sim_real_seconds(void);
+/* Throttled: the real seconds at which the current simulated instant is due by the pacing. */
+double sim_due_seconds(const sim_t *s);
 
 /* bus.c: chips on the pins. */
 int bus_attach(sim_t *s, int nch, uint32_t dout_delay);
