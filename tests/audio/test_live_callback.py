@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from fingertip.audio import InputDevice, SoundDeviceSource
+from fingertip.audio.live import WARMUP_S, WARMUP_SLEW
 
 FS = 44100.0
 USB_CARD = InputDevice(2, "USB Audio Device: - (hw:1,0)", "ALSA", 1, FS, 1, "1-2.3")
@@ -46,11 +47,12 @@ def prepared(device: InputDevice, timestamps: str = "auto", latency: float = 0.0
 
 def drive(src: SoundDeviceSource, seconds: float, *, skew_ppm: float = 0.0, block: int = 441,
           latency: float = 0.005, adc=lambda i, t: t, seed: int = 1, status=lambda i: None,
-          t0: float = 1000.0):
+          t0: float = 1000.0, stall_s: float = 0.0):
     """Run callbacks for ``seconds`` of audio from a card ``skew_ppm`` slow.
 
     Returns (block first index, true host time of that frame) pairs. ``adc(i, true_adc)``
-    lets a test corrupt the ADC time of callback i.
+    lets a test corrupt the ADC time of callback i. ``stall_s``: the host stalls as the
+    stream opens; the blocks due before then come in a burst when it ends.
     """
     rng = random.Random(seed)
     skew = skew_ppm * 1e-6
@@ -61,6 +63,7 @@ def drive(src: SoundDeviceSource, seconds: float, *, skew_ppm: float = 0.0, bloc
         t_first = t0 + k / FS * (1 + skew)
         t_end = t0 + (k + block) / FS * (1 + skew)
         now = t_end + latency + rng.expovariate(1 / 0.0015)
+        now = max(now, t0 + stall_s + i * 20e-6)
         src.clock = lambda now=now: now
         data = (np.arange(k, k + block) % 30000).astype(np.int16).reshape(-1, 1)
         data = np.repeat(data, src.channels, axis=1)
@@ -73,9 +76,9 @@ def drive(src: SoundDeviceSource, seconds: float, *, skew_ppm: float = 0.0, bloc
     return truth
 
 
-def read_all(src: SoundDeviceSource):
+def read_all(src: SoundDeviceSource, max_frames: int | None = None):
     chunks = []
-    while (c := src.ring.read()) is not None:
+    while (c := src.ring.read(max_frames)) is not None:
         chunks.append(c)
     return chunks
 
@@ -109,6 +112,29 @@ def test_frame_counts_when_adc_time_is_zero_or_untrusted(device):
     assert np.all(np.diff(times) > 0)
     # Consistent with the sample count: at most the slew (0.5 %) off nominal per block.
     np.testing.assert_allclose(np.diff(times), np.diff(idx) / FS, rtol=5.1e-3)
+
+
+def test_a_stall_as_the_stream_opens_leaves_the_stamps_within_the_warm_up():
+    """The first callbacks come 0.6 s late, then in a burst: the first stamps are late by
+    the stall (nothing causal can know better), and the stamps catch up with the fit within
+    the warm-up instead of at the steady slew (0.5 %: two minutes for 0.6 s)."""
+    src = prepared(PULSE, latency=0.005)
+    truth = drive(src, 10.0, latency=0.005, stall_s=0.6)
+    assert src.stats.clock_steps == 0 and src.stats.timestamp_source == "frames"
+    chunks = read_all(src, 441)  # one chunk per block
+    idx = np.array([c.first_index for c in chunks])
+    times = np.array([c.host_time for c in chunks])
+    assert np.all(np.diff(times) > 0)
+    true = dict(truth)
+    err = np.array([times[i] - true[k] for i, k in enumerate(idx)])
+    assert err[0] > 0.5  # stamped when it came
+    warm = idx[1:] <= WARMUP_S * FS
+    ratio = np.diff(times) / (np.diff(idx) / FS)
+    assert ratio[warm].min() >= 1 - WARMUP_SLEW - 1e-9
+    assert np.all(np.abs(ratio[~warm] - 1) <= 5.1e-3)
+    late = idx > 3.0 * FS  # 0.6 s caught up at 25 %: after 2.4 s of audio
+    assert np.all(np.abs(err[late]) < 1e-3), err[late].max()
+    assert abs(src.time_of(int(idx[-1])) - times[-1]) < 1e-3
 
 
 def test_adc_time_that_jumps_switches_to_frames_and_counts_the_step():

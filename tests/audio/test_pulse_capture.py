@@ -12,6 +12,7 @@ from fingertip.audio import (
     AudioDeviceNotFound, AudioSettingsError, Chunk, SoundDeviceSource, find_input_device,
     list_input_devices, refresh_devices,
 )
+from fingertip.audio.live import SLEW, WARMUP_S, WARMUP_SLEW
 
 from .pulse import PulseError, check_tools
 
@@ -104,14 +105,21 @@ def check_timestamps(chunks: list[Chunk], src: SoundDeviceSource) -> None:
     # blocks started in between: a chunk may end mid-block, so one ~100-frame block more),
     # end to end within the slew plus 1 ms. (The null sink runs about 240 ppm fast against
     # CLOCK_MONOTONIC with these 2 ms blocks; the fit follows it.)
+    # In the stream's first WARMUP_S seconds they may catch up faster (WARMUP_SLEW): a host
+    # busy while the stream opened delivers the first blocks late and then in a burst.
     dt_frames = np.diff(idx) / FS
-    assert np.all(np.abs(np.diff(t) - dt_frames) <= 5.1e-3 * (dt_frames + 200 / FS))
-    span = (idx[-1] - idx[0]) / FS
-    assert abs((t[-1] - t[0]) - span) < 5.1e-3 * span + 1e-3
+    slew = np.where(idx[1:] <= WARMUP_S * FS, WARMUP_SLEW, SLEW) + 1e-4
+    assert np.all(np.abs(np.diff(t) - dt_frames) <= slew * (dt_frames + 200 / FS))
+    # Unless the first stamp was that late (then the warm-up slew may have been used), end
+    # to end within the steady slew plus 1 ms.
+    if abs(src.time_of(int(idx[0])) - t[0]) < 0.02:
+        span = (idx[-1] - idx[0]) / FS
+        assert abs((t[-1] - t[0]) - span) < 5.1e-3 * span + 1e-3
     assert all(abs(c.host_rate / FS - 1) < 500e-6 for c in chunks)
     # Chunk times are causal (the fit when the block came); they converge on the final fit.
     # How far apart they start depends on how late the first callbacks were scheduled: a
-    # few ms on an idle machine, up to about 20 ms with both cores busy.
+    # few ms on an idle machine, up to about 20 ms with both cores busy, 0.55 s once in a
+    # fresh clone's make test (then the warm-up slew catches up within 2.2 s of audio).
     assert abs(src.time_of(int(idx[-1])) - t[-1]) < 0.02
 
 

@@ -40,6 +40,13 @@ SLEW = 5e-3
 """How fast chunk times may catch up with a clock fit that moved back (seconds per second):
 5 ms per second of audio; a chunk may start at most 0.5 % of its block early (half a sample
 for 95-frame blocks, two samples for 441-frame blocks)."""
+WARMUP_S = 4.0
+WARMUP_SLEW = 0.25
+"""In a stream's first ``WARMUP_S`` seconds of audio, chunk times catch up at up to 25 %.
+The fit is young there: if the first callbacks came late (a busy host while the stream
+opened, then the backlog in a burst), the first stamps are late by that stall and the fit
+moves back when the burst arrives. At 0.5 % a 0.5 s stall would stay in the stamps for
+100 s of audio; at 25 % it is gone after 2 s (up to 1 s of stall is caught up this way)."""
 
 
 def adc_time_trusted(device: InputDevice) -> bool:
@@ -254,8 +261,10 @@ class SoundDeviceSource(RingSource):
         rate = clock.rate
         if t < self._t_min:
             # A refit (or a switch of clock) moved the line back: stay monotonic, and slew
-            # towards the fit by at most SLEW (0.5 %) of the block's duration.
-            t = max(t, self._t_min - SLEW * n / rate)
+            # towards the fit by at most SLEW (0.5 %) of the block's duration (WARMUP_SLEW
+            # while the stream is young).
+            slew = WARMUP_SLEW if k0 < WARMUP_S * self.sample_rate else SLEW
+            t = max(t, self._t_min - slew * n / rate)
         self._t_min = t + n / rate
         self._rate = rate
         return t
