@@ -73,6 +73,12 @@ CASES = [
     ("numbers went back", F(3000, 5_000_000, 10.0), F(3, 6_000_000, 11.0), False, 79, True),
     # No frame missing: the next frame came one period later.
     ("nothing missing", F(7, 1_000_000, 3.0), F(8, 1_012_500, 3.0125), False, 0, False),
+    # The stamps before the break were late (the host was busy as the stream began, and
+    # the map's line fell when on-time frames came): the device's clock ran 0.29 s more
+    # than the stamps say. It ran on; counted by its clock and numbers.
+    ("late stamps before", F(7, 75_000, 10.3), F(80, 987_500, 10.92), False, 72, False),
+    # A clock 4.4 s ahead of the stamps is no late stamp: not the device that ran on.
+    ("clock far ahead", F(7, 75_000, 10.0), F(80, 5_075_000, 10.62), False, 49, True),
     # No clock map on the host yet: arrival times stand in.
     ("arrival times", F(7, 1_000_000, math.nan, 3.0), F(5, 10_000, math.nan, 4.0), False,
      79, True),
@@ -177,15 +183,21 @@ def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: b
     assert ft.gone_s >= away_s  # how long it has been gone, while it is
     dev.replug(reboot=reboot)
     assert wait_for(lambda: ft.stats.outage_frames > 0, 5.0)
-    frames = ft.drain()
-    pairs = list(zip(frames, frames[1:], strict=False))
     # Found by the device's clock, not the host's: a busy host can hold two consecutive
-    # frames apart for longer than the outage.
-    if reboot:  # its clock began again
-        k = next(i for i, (a, b) in enumerate(pairs) if b.device_time_us < a.device_time_us)
-    else:  # its clock ran on: the one long step
-        k = max(range(len(pairs)),
-                key=lambda i: pairs[i][1].device_time_us - pairs[i][0].device_time_us)
+    # frames apart for longer than the outage. The counter moves as the first frame after
+    # the break is handed out, a moment before it is queued: drain until it is there.
+    frames: list = []
+
+    def across() -> int | None:
+        frames.extend(ft.drain())
+        steps = [b.device_time_us - a.device_time_us for a, b in zip(frames, frames[1:])]
+        if reboot:  # its clock began again
+            return next((i for i, s in enumerate(steps) if s < 0), None)
+        k = max(range(len(steps)), key=steps.__getitem__, default=None)  # the one long step
+        return k if k is not None and steps[k] > away_s * 1e6 else None
+
+    assert wait_for(lambda: across() is not None, 5.0)
+    k = across()
     assert ft.gone_s is None
     return frames[k], frames[k + 1]
 

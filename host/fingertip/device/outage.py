@@ -33,6 +33,14 @@ of a frame's time is known to a few milliseconds, a restarted device's clock is 
 least the time the old one had run."""
 CONTINUITY_PPM = 5000
 """... and within this share of the gap (the Uno's resonator: a few hundred ppm; generous)."""
+LATE_STAMPS_S = 2.0
+"""How much longer than the host's stamps say a gap may be on the clock of a device that ran
+on. Stamps are late by as much as the host was busy when the frames came: a young clock map
+(a stream whose first frames were held up) only lowers its line when on-time frames arrive,
+so the last stamp before a break can be late by that much, the first after it not. Late stamps
+only ever shorten the host's view of a gap; a restart always lengthens it (its clock began
+again), unless its device time went back, which makes the device's gap, modulo 2^32 us,
+over 70 minutes."""
 SEQ_SLACK = 16
 """Messages other than frames a device may send in a gap (a STATS a second, late ACKs)."""
 MIN_MEASURE_S = 2.0
@@ -80,12 +88,14 @@ def periods(seconds: float, period_s: float) -> int:
 
 def continued(before: FramePoint, after: FramePoint, period_s: float) -> bool:
     """True when ``after`` comes from the device that sent ``before`` without a restart in
-    between: device time advanced as much as host time did, and the sequence numbers about
+    between: device time advanced as much as host time did (or up to
+    :data:`LATE_STAMPS_S` more, as the host's stamps can be late), and the sequence numbers about
     one per frame period (each frame takes one; a few other messages may take more; a
     restarted device numbers from 0 again), unless so many passed that they wrapped."""
     host_s = host_seconds(after) - host_seconds(before)
     dev_s = device_gap_us(before.device_time_us, after.device_time_us) * 1e-6
-    if abs(dev_s - host_s) > CONTINUITY_S + abs(host_s) * CONTINUITY_PPM * 1e-6:
+    tol = CONTINUITY_S + abs(host_s) * CONTINUITY_PPM * 1e-6
+    if host_s - dev_s > tol or dev_s - host_s > tol + LATE_STAMPS_S:
         return False
     n = periods(dev_s, period_s)
     if 2 * n + SEQ_SLACK >= SEQ_MODULUS:
