@@ -3,6 +3,7 @@ fingertip.device.outage (table-driven, wraparounds included), then a Fingertip o
 whose device is unplugged and comes back, restarted or not."""
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass
@@ -190,7 +191,8 @@ def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: b
 
     def across() -> int | None:
         frames.extend(ft.drain())
-        steps = [b.device_time_us - a.device_time_us for a, b in zip(frames, frames[1:])]
+        steps = [b.device_time_us - a.device_time_us
+                 for a, b in itertools.pairwise(frames)]
         if reboot:  # its clock began again
             return next((i for i, s in enumerate(steps) if s < 0), None)
         k = max(range(len(steps)), key=steps.__getitem__, default=None)  # the one long step
