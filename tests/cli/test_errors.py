@@ -14,7 +14,7 @@ import pytest
 
 from fingertip.audio.sanity import signal_problem
 from fingertip.badfile import BadFileError, check_input
-from fingertip.cli.stopping import Interrupted, run_command, stop_signals
+from fingertip.cli.stopping import Interrupted, failed, run_command, stop_signals
 from fingertip.errors import (
     BadArgumentError,
     BadArgumentTypeError,
@@ -153,6 +153,25 @@ def test_stop_signals_even_when_the_parent_ignored_sigint():
         assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+def test_an_interrupt_a_library_swallowed_is_still_an_interrupt(caplog):
+    # As numpy's import did at a SIGHUP beside busy loops: the signal's exception vanished
+    # inside its C extension and an unchained ImportError came out instead.
+    with stop_signals():
+        try:
+            os.kill(os.getpid(), signal.SIGHUP)
+            for _ in range(100):
+                pass
+        except Interrupted:
+            pass
+        code = failed(ImportError("IMPORTANT: PLEASE READ THIS FOR ADVICE"))
+    assert code == 130
+    assert "interrupted by SIGHUP" in caplog.text and "IMPORTANT" in caplog.text
+    caplog.clear()
+    with stop_signals():  # no signal this time: an error as any other
+        assert failed(ImportError("no module named x")) == 1
+    assert "interrupted" not in caplog.text
 
 
 def test_special_files_are_refused_before_open(tmp_path):

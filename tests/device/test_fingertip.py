@@ -2,6 +2,8 @@
 through pyserial (its commands, link and restore have test files of their own)."""
 from __future__ import annotations
 
+import numpy as np
+
 from fingertip import Fingertip
 
 from .waiting import wait_for
@@ -26,7 +28,11 @@ def test_open_info_tare_stream(device):
         assert set(dts) <= {12_500, 12_496, 12_504}
         # Host times are mapped device times, in the right place (their accuracy under
         # jitter and drift is measured in test_timesync; this machine may be loaded).
-        assert all(abs(f.arrival_time - f.host_time) < 0.1 for f in frames[10:])
+        # A mapped time is never after the frame arrived (the map is the arrivals' lower
+        # envelope), and most frames arrive soon after it; beside busy loops some a
+        # scheduler's slice or more later.
+        late = np.array([f.arrival_time - f.host_time for f in frames[10:]])
+        assert late.min() > -1e-3 and np.median(late) < 0.1
         assert all(b.host_time > a.host_time for a, b in zip(frames, frames[1:], strict=False))
         st = ft.stats
         assert st.frames_ok >= 40 and st.crc_errors == 0 and st.frames_lost == 0

@@ -53,14 +53,16 @@ class Interrupted(KeyboardInterrupt):
 
 
 _raised = threading.Event()
+_signame = ["SIGINT"]  # the stop signal that was raised (once _raised is set)
 
 
 def _on_signal(signum: int, _frame: Any) -> None:
     if _raised.is_set():
         log.debug("%s while stopping: ignored", signal.Signals(signum).name)
         return
+    _signame[0] = signal.Signals(signum).name
     _raised.set()
-    raise Interrupted(signal.Signals(signum).name)
+    raise Interrupted(_signame[0])
 
 
 @contextlib.contextmanager
@@ -105,12 +107,16 @@ def run_command(fn: Callable[[Any], int], args: Any, verbose: int = 0) -> int:
 
 def failed(e: Exception, verbose: int = 0) -> int:
     """One ERROR line for ``e`` and its exit status. An interrupt that a library turned into
-    another exception (numpy makes an ImportError of a Ctrl-C during its import) is still
-    an interrupt."""
+    another exception (numpy makes an ImportError of a Ctrl-C during its import, and a
+    signal inside its C extension's start-up leaves no trace in the chain) is still an
+    interrupt: found in the chain, or by the stop signal raised meanwhile."""
     seen: BaseException | None = e
     for _ in range(10):
         seen = seen.__cause__ or seen.__context__ if seen is not None else None
         if isinstance(seen, KeyboardInterrupt):
             return interrupted(seen, verbose)
+    if _raised.is_set():
+        log.warning("while stopping: %s", describe(e), exc_info=verbose > 0)
+        return interrupted(Interrupted(_signame[0]), verbose)
     log.error("%s", describe(e), exc_info=verbose > 0)
     return exit_code(e)
