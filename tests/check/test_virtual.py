@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -58,6 +59,32 @@ def test_no_false_failure_on_clean_units(first):
         if rep.failures:
             failures[seed] = [(r.check, r.channel, r.value) for r in rep.failures]
     assert not failures
+
+
+class LateHostGuide(SimGuide):
+    """The simulator acts as asked, then the host is busy elsewhere for 0.6 s (2.4 s of
+    device time at SPEED): the whole press or the taps are queued before the check reads."""
+
+    def press(self, face: int, label: str) -> bool:
+        super().press(face, label)
+        time.sleep(0.6)
+        return True
+
+    def tap(self, count: int) -> bool:
+        super().tap(count)
+        time.sleep(0.6)
+        return True
+
+
+def test_a_host_late_to_read_still_sees_the_presses_and_taps():
+    # Beside busy loops a clean unit failed "press +X: no response": the capture dropped
+    # the frames queued while the host was away, and the press with them.
+    unit = VirtualUnit(1003)
+    with PtyDevice(unit.firmware, speed=SPEED) as dev, \
+            Fingertip(dev.port, command_timeout=2.0) as ft:
+        rep = run_check(DeviceProbe(ft), LateHostGuide(unit), SimAudio(unit))
+    assert not rep.failures, rep.table()
+    assert rep.mapping is not None and not rep.skipped_steps
 
 
 def test_no_prompt_skips_and_says_so():

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..device import Fingertip, FingertipError
+from ..device import Fingertip, FingertipError, Frame
 from ..protocol import message_to_dict
 from .signals import Segment
 
@@ -60,10 +60,28 @@ class DeviceProbe:
     def set_rate(self, rate_sps: int) -> None:
         self.ft.set_rate(rate_sps, 1)
 
-    def capture(self, seconds: float, timeout: float = 3.0) -> Segment:
-        """Frames covering ``seconds`` of device time from now."""
-        self.ft.drain()
+    def capture(self, seconds: float, timeout: float = 3.0, since: float | None = None
+                ) -> Segment:
+        """Frames covering ``seconds`` of device time from now, or, with ``since`` (a
+        ``time.monotonic()`` value, e.g. when a person or the simulator was asked to act),
+        from the first frame that arrived at or after it: frames already queued count, so a
+        host that comes late to read loses none of the action (what arrived late but was
+        made before the frames that came before ``since`` does not count)."""
+        queued = self.ft.drain()
         rows, t_first = [], None
+        if since is not None:
+            before = [f.device_time_us for f in queued if f.arrival_time < since]
+            rows = [f for f in queued if f.arrival_time >= since
+                    and (not before or f.device_time_us > before[-1])]
+            if rows:
+                t_first = rows[0].device_time_us * 1e-6
+                end = next((k for k, f in enumerate(rows)
+                            if f.device_time_us * 1e-6 - t_first >= seconds), None)
+                if end is not None:
+                    rows = rows[:end + 1]
+                self._note(rows[-1])
+                if end is not None:
+                    return self._segment(rows)
         deadline = time.monotonic() + seconds * 4 + timeout
         while time.monotonic() < deadline:
             f = self.ft.read(timeout=0.5)
@@ -74,10 +92,16 @@ class DeviceProbe:
             t = f.device_time_us * 1e-6
             t_first = t if t_first is None else t_first
             rows.append(f)
-            self.last_time_s = t
-            self.host_minus_device_s = f.host_time - t
+            self._note(f)
             if t - t_first >= seconds:
                 break
+        return self._segment(rows)
+
+    def _note(self, f: Frame) -> None:
+        self.last_time_s = f.device_time_us * 1e-6
+        self.host_minus_device_s = f.host_time - self.last_time_s
+
+    def _segment(self, rows: list[Frame]) -> Segment:
         n, c, cols = len(rows), self.channels, self._cols
         counts = np.full((n, c), np.nan)
         tmask = np.zeros(n, np.int64)

@@ -109,14 +109,24 @@ def _run(probe, guide: Guide, audio, rep: Report, say) -> None:
                    data=counters))
 
 
+def _acting_from(guide: Guide, called: float) -> float:
+    """When the guide's action may begin (``time.monotonic()``): a person acts after the
+    prompt returns ("GO"); a simulated guide schedules its action as it is called. The
+    capture keeps every frame that arrived from then on, queued ones included, so a host
+    late to read (a busy machine) loses none of the action."""
+    return time.monotonic() if guide.interactive else called
+
+
 def _presses(probe, guide: Guide, rep: Report, noise, bad, say) -> None:
     responses: dict[int, np.ndarray | None] = {}
     for face, label in enumerate(S.FACES):
+        asked = time.monotonic()
         if not guide.press(face, label):
             rep.skipped_steps.append(f"press {label} (polarity, mapping, sensitivity)")
             continue
+        asked = _acting_from(guide, asked)
         say(f"press {label} ...")
-        seg = probe.capture(PRESS_S[guide.interactive])
+        seg = probe.capture(PRESS_S[guide.interactive], since=asked)
         responses[face] = S.press_response(seg, noise, bad)
     rep.recorded["responses"] = responses
     if not responses:
@@ -132,13 +142,15 @@ def _taps(probe, guide: Guide, audio, rep: Report, noise, bad, say) -> None:
         rep.add(Result("piezo", SKIP, "no sound card", "", fix=""))
         return
     audio.start(probe.last_time_s)
+    asked = time.monotonic()
     if not guide.tap(TAPS):
         audio.stop(probe.last_time_s)
         rep.skipped_steps.append("tap the nail (piezo level, clipping, delay)")
         rep.add(Result("piezo", SKIP, "taps skipped", ""))
         return
+    asked = _acting_from(guide, asked)
     say("tapping ...")
-    seg = probe.capture(TAP_S[guide.interactive])
+    seg = probe.capture(TAP_S[guide.interactive], since=asked)
     x, t0 = audio.stop(probe.last_time_s)
     taps = force_tap_times(seg, noise, bad)
     rep.add(check_piezo(x, audio.sample_rate, t0, taps, TAPS, audio.name))
