@@ -18,6 +18,7 @@ from fingertip.models.vibration.classify import load_folder, stratified_folds
 from fingertip.models.vibration.cross_validation import (
     TRIAL_ROUND,
     FitMemo,
+    composite_rounds,
     cross_validate,
     cross_validate_against,
     training_rows,
@@ -174,19 +175,30 @@ def test_a_trial_stopped_early_decides_as_the_full_trial(hard):
 
 def test_an_ensemble_trial_stops_after_its_first_round_of_folds(hard):
     """The ensemble's members are fitted a round of folds at a time, so its trial stops
-    like any candidate's (it used to fit every fold's members before the first check)."""
+    like any candidate's (it used to fit every fold's members before the first check);
+    a round is as many folds as make TRIAL_ROUND new fits: one fold of a trial, whose
+    four members are all new, two where only the second MLP is (the others' folds are
+    remembered from their own cross-validations)."""
     ds, setup = hard
     labels = ds.labels
     folds = stratified_folds(labels, 4, 0)
+    trains = [np.setdiff1d(np.concatenate(folds), te) for te in folds]
     cands = candidates(setup, ("baseline", "linear", "mlp", "ensemble"), epochs=20)
     ens = cands[-1]
     bank = build_bank(setup, ds, cands, "clean")
     full = cross_validate(ens, bank.view(ens), labels, folds, ds.classes, 0)
     memo = FitMemo()
+    assert composite_rounds(ens, bank.view(ens), trains, 0, memo, True) == [[0], [1], [2],
+                                                                             [3]]
+    assert composite_rounds(ens, bank.view(ens), trains, 0, memo, False) == [[0, 1, 2, 3]]
     stopped = cross_validate_against(ens, bank.view(ens), labels, folds, ds.classes, 0,
                                      full, 1.0 + 1e-9, jobs=2, memo=memo)
-    assert stopped.table is None and stopped.folds_run == TRIAL_ROUND
-    assert len(memo) == TRIAL_ROUND * len(ens.members)  # the other folds never fitted
+    assert stopped.table is None and stopped.folds_run == 1
+    assert len(memo) == len(ens.members)  # the other folds never fitted
+    memo = FitMemo()
+    for c in cands[:3]:
+        cross_validate(c, bank.view(c), labels, folds, ds.classes, 0, memo=memo)
+    assert composite_rounds(ens, bank.view(ens), trains, 0, memo, True) == [[0, 1], [2, 3]]
 
 
 def _answers(right: list[bool], k: int = 3) -> dict[int, Answers]:
