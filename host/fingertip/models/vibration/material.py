@@ -114,7 +114,8 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     for the folds (None: every core, :func:`~.parallel.default_jobs`; the result does not
     depend on it). ``progress``: a bar per phase on stderr. ``every_fold``: cross-validate
     every candidate on every fold, also one that can no longer change the choice (by
-    default it stops then: :mod:`.choice`; the choice is the same either way).
+    default it stops then, :mod:`.choice`: the same choice, but about once in a thousand
+    stops by the confidence bound).
     """
     augment = AugmentConfig() if augment is None else augment
     cnn_budget = CNN_WORK_LIMIT if cnn_budget is None else cnn_budget
