@@ -460,7 +460,9 @@ def tables(r: dict[str, float]) -> dict[str, str]:
             cells = " | ".join(f"{100 * acc[t]['accuracy']:.1f} %" if t in acc and
                                acc[t]["recordings"] else "-"
                                for t in ("0.25 s", "0.5 s", "1 s", "whole"))
-            mark = " (chosen)" if name == rep["model"] else ""
+            mark = " (chosen)" if name == rep["model"] else \
+                (f" (stopped after {c['folds_run']} folds: could not change the choice)"
+                 if c.get("stopped") else "")
             rows.append(f"| {label} | {name}{mark} | {cells} | "
                         f"{c['cross_validation_s']:.1f} | "
                         f"{c['cost']['train_s_one_fold']:.2f} | {c['cost']['parameters']:,} | "

@@ -79,7 +79,8 @@ def _cmd_train_material(args: argparse.Namespace) -> int:
                               epochs=args.epochs, folds=args.folds,
                               models=args.models or DEFAULT_CANDIDATES,
                               augment=AugmentConfig(copies=args.augment),
-                              cnn_budget=args.cnn_budget, jobs=args.jobs)
+                              cnn_budget=args.cnn_budget, jobs=args.jobs,
+                              every_fold=args.every_fold)
 
     _check_out(args.out)
     return _run_training(train, material_summary_lines, args.json)
@@ -306,6 +307,9 @@ def add_parsers(sub) -> None:
     m.add_argument("--folds", type=number(int, 0, 100, lo_open=True), default=1, metavar="K",
                    help="K-fold cross-validation by recording instead of one split "
                         "(default 1: one split, --test-fraction held out)")
+    m.add_argument("--every-fold", action="store_true",
+                   help="cross-validate every candidate on every fold (default: a costlier "
+                        "candidate stops once it can no longer change the choice)")
     m.set_defaults(func=_cmd_train_material)
 
     s = tsub.add_parser("shake", help="box-content classifiers (CNN and MLP) from shaking",

@@ -124,3 +124,64 @@ def test_a_notch_that_costs_less_than_the_tie_is_kept(tmp_path, monkeypatch, mar
     assert notch["adopted"] is adopted
     assert notch["mean_accuracy_with"] == pytest.approx(seen[0] + margin)
     assert f"{100 * TIE:g} points" in notch["rule"]
+
+
+def test_each_training_recording_is_searched_for_lines_once(tmp_path, monkeypatch):
+    """The trial's count of the recordings with lines and its notched features share one
+    search per recording (the public search function, counted by the samples it sees)."""
+    from fingertip.models.vibration import mains
+
+    data = _write(tmp_path / "d", {"low": ((200, 800), "half"),
+                                   "high": ((1000, 3000), "half")})
+    ds = load_folder(data)
+    mine = {np.asarray(it.rec.samples).tobytes(): 0 for it in ds.items}
+    real = mains.find_mains_lines
+
+    def counted(x, rate):
+        key = np.asarray(x).tobytes()
+        if key in mine:
+            mine[key] += 1
+        return real(x, rate)
+
+    monkeypatch.setattr(mains, "find_mains_lines", counted)
+    r = _train(data, tmp_path / "m", jobs=1)
+    assert r.report["mains_notch"]["recordings_with_lines"] == N
+    assert "mean_accuracy_with" in r.report["mains_notch"]      # the trial ran its folds
+    assert sorted(set(mine.values())) == [1]
+
+
+def test_the_notched_features_reuse_the_lines_found_and_the_clean_windows(tmp_path):
+    """The notched bank built from the lines found once, with the clean windows for the
+    recordings without lines, equals the one that searches every recording itself."""
+    from dataclasses import replace
+
+    from fingertip.models.vibration.bank import build_bank
+    from fingertip.models.vibration.candidates import candidates
+    from fingertip.models.vibration.mains_trial import mains_lines_of
+    from fingertip.models.vibration.setup import choose_setup
+
+    data = _write(tmp_path / "d", {"low": ((200, 800), "half"),
+                                   "high": ((1000, 3000), "half")})
+    ds = load_folder(data)
+    setup = choose_setup(ds)
+    notched = replace(setup, cfg=replace(setup.cfg, mains_notch=True))
+    cands = candidates(setup, ("linear", "cnn"))
+    clean = build_bank(setup, ds, cands, "clean")
+    lines = mains_lines_of(ds)
+    assert sum(bool(v) for v in lines) == N
+    ticks = []
+    shared = build_bank(notched, ds, cands, "n", lambda: ticks.append(1), lines=lines,
+                        clean=clean)
+    alone = build_bank(notched, ds, cands, "n")
+    assert len(ticks) == N                                      # only those with lines
+    for a, b in ((shared.train, alone.train), (shared.test, alone.test),
+                 (shared.own["cnn"].train, alone.own["cnn"].train),
+                 (shared.own["cnn"].test, alone.own["cnn"].test)):
+        for x, y in zip(a, b, strict=True):
+            np.testing.assert_array_equal(x.inputs, y.inputs)
+            np.testing.assert_array_equal(x.level_db, y.level_db)
+    for i, found in enumerate(lines):
+        if not found:
+            assert shared.train[i] is clean.train[i]
+        else:
+            assert not np.array_equal(shared.test[i].inputs, clean.test[i].inputs)

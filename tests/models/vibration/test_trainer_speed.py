@@ -18,6 +18,7 @@ from fingertip.models.vibration.classify import load_folder, stratified_folds
 from fingertip.models.vibration.cross_validation import (
     TRIAL_ROUND,
     FitMemo,
+    fold_rounds,
     cross_validate,
     cross_validate_against,
     training_rows,
@@ -174,19 +175,35 @@ def test_a_trial_stopped_early_decides_as_the_full_trial(hard):
 
 def test_an_ensemble_trial_stops_after_its_first_round_of_folds(hard):
     """The ensemble's members are fitted a round of folds at a time, so its trial stops
-    like any candidate's (it used to fit every fold's members before the first check)."""
+    like any candidate's (it used to fit every fold's members before the first check);
+    a round is as many folds as make TRIAL_ROUND new fits: one fold of a trial, whose
+    four members are all new, two where only the second MLP is (the others' folds are
+    remembered from their own cross-validations), three of a plain candidate whose first
+    fold is remembered."""
     ds, setup = hard
     labels = ds.labels
     folds = stratified_folds(labels, 4, 0)
+    trains = [np.setdiff1d(np.concatenate(folds), te) for te in folds]
     cands = candidates(setup, ("baseline", "linear", "mlp", "ensemble"), epochs=20)
     ens = cands[-1]
     bank = build_bank(setup, ds, cands, "clean")
     full = cross_validate(ens, bank.view(ens), labels, folds, ds.classes, 0)
     memo = FitMemo()
+    assert fold_rounds(ens, bank.view(ens), trains, 0, memo, True) == [[0], [1], [2], [3]]
+    assert fold_rounds(ens, bank.view(ens), trains, 0, memo, False) == [[0, 1, 2, 3]]
     stopped = cross_validate_against(ens, bank.view(ens), labels, folds, ds.classes, 0,
                                      full, 1.0 + 1e-9, jobs=2, memo=memo)
-    assert stopped.table is None and stopped.folds_run == TRIAL_ROUND
-    assert len(memo) == TRIAL_ROUND * len(ens.members)  # the other folds never fitted
+    assert stopped.table is None and stopped.folds_run == 1
+    assert len(memo) == len(ens.members)  # the other folds never fitted
+    memo = FitMemo()
+    lin = cands[1]
+    assert fold_rounds(lin, bank.view(lin), trains, 0, memo, True) == [[0, 1], [2, 3]]
+    for c in cands[:3]:
+        cross_validate(c, bank.view(c), labels, folds, ds.classes, 0, memo=memo)
+    assert fold_rounds(ens, bank.view(ens), trains, 0, memo, True) == [[0, 1], [2, 3]]
+    memo = FitMemo()
+    memo.put(memo.key("linear", "clean", trains[0], 0), object(), 0.0)
+    assert fold_rounds(lin, bank.view(lin), trains, 0, memo, True) == [[0, 1, 2], [3]]
 
 
 def _answers(right: list[bool], k: int = 3) -> dict[int, Answers]:
@@ -223,6 +240,19 @@ def test_the_confidence_bound_stops_a_trial_only_when_it_is_clearly_behind():
     assert likely_at_most(worse_by(10, 20), clean, labels) == np.inf  # too few to judge
     same = {i: clean[i] for i in range(400)}
     assert likely_at_most(same, clean, labels) == pytest.approx(base)
+
+
+def test_the_paired_bound_takes_answers_on_other_windows():
+    """A candidate on windows of its own (the CNN's) may stop a frame short of a decision
+    time the other reached: the paired difference counts the times both reached."""
+    labels = np.zeros(60, np.intp)
+    right = np.array([[0.8, 0.1, 0.1]] * 3)
+    wrong = np.array([[0.1, 0.8, 0.1]] * 3)
+    every = {i: Answers(right, right, np.array([0.25, 0.5, 1.0]), i % 5) for i in range(60)}
+    part = {i: Answers(wrong if i % 4 == 0 else right, wrong if i % 4 == 0 else right,
+                       np.array([0.25, 0.5, 0.9]), i % 5) for i in range(40)}
+    bound = likely_at_most(part, every, labels, times=(0.25, 0.5, 1.0, None))
+    assert np.isfinite(bound) and bound < 1.0
 
 
 @pytest.mark.parametrize("train", [train_svm, train_boost])

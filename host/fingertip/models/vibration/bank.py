@@ -107,8 +107,8 @@ def _chunk_job(key: str, lo: int, hi: int) -> list:
     return [fn(i) for i in range(lo, hi)]
 
 
-def _per_recording(key: str, fn: Callable[[int], object], n: int, jobs: int,
-                   done: Callable[[], None] | None) -> list:
+def per_recording(key: str, fn: Callable[[int], object], n: int, jobs: int,
+                  done: Callable[[], None] | None = None) -> list:
     """``[fn(i) for i in range(n)]``, in chunks of :data:`CHUNK` recordings on ``jobs``
     worker processes (each recording's result depends on it alone, so the same)."""
     if jobs <= 1:
@@ -130,24 +130,39 @@ def _per_recording(key: str, fn: Callable[[int], object], n: int, jobs: int,
 
 
 def build_bank(setup: Setup, ds: Dataset, cands: Sequence[Candidate], token: str,
-               done: Callable[[], None] | None = None, jobs: int = 1) -> Bank:
+               done: Callable[[], None] | None = None, jobs: int = 1,
+               lines: Sequence[Sequence[float]] | None = None,
+               clean: Bank | None = None) -> Bank:
     """One short-time spectrum per recording of ``ds``; its shared windows, and the own
     windows of the candidates of ``cands`` without columns (from the same spectrum).
-    ``jobs``: worker processes (the recordings are independent)."""
+    ``jobs``: worker processes (the recordings are independent). With features that notch
+    mains lines: ``lines``, every recording's lines when found already (not searched
+    again), and ``clean``, the bank of the same features without the notch, whose windows
+    the recordings without lines take (the notch leaves them as they are: the same
+    samples, the same windows); ``done`` then ticks for the others only."""
     t0 = time.perf_counter()
     pipe, p90 = bank_pipeline(setup), p90_pipeline(setup)
     nb = setup.cfg.n_bands
     others = [c for c in cands if c.cols is None]
+    n = len(ds.items)
+    reuse = lines is not None and clean is not None and setup.cfg.mains_notch \
+        and all(c.name in clean.own for c in others)
+    todo = [i for i in range(n) if lines[i]] if reuse else list(range(n))
 
-    def one(i: int) -> tuple:
+    def one(k: int) -> tuple:
+        i = todo[k]
         rec = ds.items[i].rec
-        power = pipe.power(rec)
+        power = pipe.power(rec, None if lines is None else lines[i])
         # log bands only for the others: the spectrum's first columns
         return (_shared(pipe, p90, rec, True, power), _shared(pipe, p90, rec, False, power),
                 [(c.pipe.windows(rec, True, power[:, :nb]),
                   c.pipe.windows(rec, power=power[:, :nb])) for c in others])
 
-    got = _per_recording("bank", one, len(ds.items), jobs, done)
+    made = dict(zip(todo, per_recording("bank", one, len(todo), jobs, done), strict=True))
+    got = [made[i] if i in made else
+           (clean.train[i], clean.test[i],
+            [(clean.own[c.name].train[i], clean.own[c.name].test[i]) for c in others])
+           for i in range(n)]
     train = [g[0] for g in got]
     test = [g[1] for g in got]
     secs = time.perf_counter() - t0
@@ -184,7 +199,7 @@ def with_copies(bank: Bank, ds: Dataset, augment: AugmentConfig, seed: int,
                                                        prefixes=True)))
         return _concat(parts), [_concat(v) for v in own]
 
-    got = _per_recording("copies", one, len(ds.items), jobs, done)
+    got = per_recording("copies", one, len(ds.items), jobs, done)
     secs = bank.seconds + time.perf_counter() - t0
     token = f"{bank.token}+{augment.to_dict()}+{seed}"
     own = {c.name: CandidateWindows([g[1][k] for g in got], bank.own[c.name].test, secs,

@@ -202,16 +202,35 @@ def fit_members(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
 
 
 TRIAL_ROUND = 2
-"""Folds per round of a cross-validation that may stop (a trial): it is asked whether to
-go on after each round, the same rounds whatever the number of workers (so that its
-decision never depends on them; two folds fill this machine's two cores)."""
+"""New fits per round of a cross-validation that may stop (a trial, a costlier candidate):
+it is asked whether to go on after each round, the same rounds whatever the number of
+workers (so that its decision never depends on them; two fits fill this machine's two
+cores). A round is as many consecutive folds as need two new fits (:func:`fold_rounds`):
+two folds of a plain candidate, one fold of a trial of the ensemble (its four members are
+all refitted), three where the first fold's fit is remembered already (the logistic
+regressions' first folds, fitted where they choose their penalty)."""
 
 
-def fold_rounds(n: int, may_stop: bool) -> list[list[int]]:
-    """The folds ``0..n-1`` in the rounds they run in: all at once, or, when the
-    cross-validation may stop, :data:`TRIAL_ROUND` at a time."""
-    size = TRIAL_ROUND if may_stop else max(1, n)
-    return [list(range(i, min(n, i + size))) for i in range(0, n, size)]
+def fold_rounds(cand: Candidate, cw: CandidateWindows, trains: list[np.ndarray], seed: int,
+                memo: FitMemo, may_stop: bool) -> list[list[int]]:
+    """The rounds the folds (``trains``: their training recordings) run in: all at once,
+    or, when the cross-validation may stop, consecutive folds until the fits not yet in
+    ``memo`` (a composite's members') make :data:`TRIAL_ROUND` (a fold already fitted
+    costs only its answers and joins the next)."""
+    if not may_stop:
+        return [list(range(len(trains)))] if trains else []
+    parts = cand.members or ((cand, 0),)
+    rounds: list[list[int]] = []
+    now: list[int] = []
+    fits = 0
+    for f, tr in enumerate(trains):
+        now.append(f)
+        fits += sum(memo.get(memo.key(m.name, cw.token, tr, seed + off)) is None
+                    for m, off in parts)
+        if fits >= TRIAL_ROUND:
+            rounds.append(now)
+            now, fits = [], 0
+    return rounds + [now] if now else rounds
 
 
 def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
@@ -249,7 +268,7 @@ def cross_validate(cand: Candidate, cw: CandidateWindows, labels: np.ndarray,
             out.update(a)
         return out
 
-    for fs in fold_rounds(len(folds), stop is not None):
+    for fs in fold_rounds(cand, cw, trains, seed, memo, stop is not None):
         if cand.first_alone and models[fs[0]] is None:  # it fixes a choice: alone, first
             results.append(run_rounds(_fold_job, [(fs[0], trains[fs[0]], folds[fs[0]],
                                                    None)], 1, share)[0])
@@ -280,13 +299,13 @@ def _cross_validate_composite(cand: Candidate, cw: CandidateWindows, labels: np.
                               memo: FitMemo, done: Callable[[], None] | None,
                               novelty: bool) -> dict[int, Answers]:
     """:func:`cross_validate` of a composite: its members fitted (or found in ``memo``)
-    a round of folds at a time (:func:`fold_rounds`), so that ``stop`` can end it between
-    rounds like any other candidate's (a trial of the ensemble would otherwise fit every
-    fold's members first)."""
+    a round of folds at a time (:func:`fold_rounds`), so that ``stop`` can end it
+    between rounds like any other candidate's (a trial of the ensemble would otherwise fit
+    every fold's members first)."""
     out: dict[int, Answers] = {}
     secs: list[float] = []
     last = None
-    for fs in fold_rounds(len(folds), stop is not None):
+    for fs in fold_rounds(cand, cw, trains, seed, memo, stop is not None):
         parts = fit_members(cand, cw, labels, [trains[f] for f in fs], classes, seed, memo,
                             jobs)
         for f, p in zip(fs, parts, strict=True):

@@ -23,25 +23,37 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
 
-from .bank import Bank, build_bank
+from . import mains
+from .bank import Bank, build_bank, per_recording
 from .candidates import TIE, Candidate
 from .classify import Dataset, FeaturePipeline
 from .cross_validation import FitMemo, cross_validate_against
-from .mains import find_mains_lines
 from .scores import Answers, accuracy_by_time, mean_accuracy
 from .setup import Setup
 
 log = logging.getLogger(__name__)
 
 
-def recordings_with_lines(ds: Dataset) -> list[int]:
+def mains_lines_of(ds: Dataset, jobs: int = 1, done: Callable[[], None] | None = None
+                   ) -> list[list[float]]:
+    """The steady mains lines of every recording of ``ds`` (its own spectrum:
+    :func:`~.mains.find_mains_lines`), on ``jobs`` worker processes."""
+
+    def one(i: int) -> list[float]:
+        rec = ds.items[i].rec
+        return mains.find_mains_lines(np.asarray(rec.samples), rec.rate)
+
+    return per_recording("mains", one, len(ds.items), jobs, done)
+
+
+def recordings_with_lines(ds: Dataset, jobs: int = 1) -> list[int]:
     """Indices of the recordings of ``ds`` whose own spectrum shows steady mains lines."""
-    return [i for i, it in enumerate(ds.items)
-            if find_mains_lines(np.asarray(it.rec.samples), it.rec.rate)]
+    return [i for i, lines in enumerate(mains_lines_of(ds, jobs)) if lines]
 
 
 def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarray,
@@ -62,7 +74,10 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
                  "steady mains lines; adopted unless the cross-validated mean accuracy "
                  f"drops by more than {100 * TIE:g} points; kept without a trial when no "
                  "recording carries lines (it changes none of them)"}
-    with_lines = recordings_with_lines(ds)
+    # each recording searched once: the notched features below reuse what is found here
+    lines = mains_lines_of(ds, jobs, bars("mains notch: lines", len(ds.items))
+                           if bars else None)
+    with_lines = [i for i, found in enumerate(lines) if found]
     out["recordings_with_lines"] = len(with_lines)
     notched_setup = replace(setup, cfg=replace(setup.cfg, mains_notch=True))
     if not with_lines:
@@ -85,8 +100,10 @@ def try_mains_notch(cand: Candidate, setup: Setup, ds: Dataset, labels: np.ndarr
     # cross-validation made (the L2 penalty), as the augmentation trial's do
     notched = replace(cand, pipe=FeaturePipeline(replace(cand.pipe.cfg, mains_notch=True),
                                                  cand.pipe.spec), fit_s=[])
-    done = bars("mains notch: features", len(ds.items)) if bars else None
-    nb = build_bank(notched_setup, ds, [notched], "notched", done, jobs)
+    # only the recordings with lines change: the others keep their clean windows
+    done = bars("mains notch: features", len(with_lines)) if bars else None
+    nb = build_bank(notched_setup, ds, [notched], "notched", done, jobs, lines=lines,
+                    clean=bank)
     done = bars("mains notch: folds", len(folds)) if bars else None
     trial = cross_validate_against(notched, nb.view(notched), labels, folds, ds.classes,
                                    seed, clean, base - TIE, jobs=jobs, memo=memo, done=done)

@@ -21,8 +21,8 @@ most). A hand must decide during a slide, on sensors and materials we never saw,
 
 Every fit is paid once: one spectrum per recording shared by every candidate and trial
 (:mod:`.bank`), the ensemble's members reused from the other candidates' folds, folds on
-every core (``jobs``), trials stopped as soon as they cannot win; a progress bar per phase
-on stderr (:mod:`.progress`).
+every core (``jobs``), trials and costlier candidates stopped as soon as they cannot win
+(:mod:`.choice`); a progress bar per phase on stderr (:mod:`.progress`).
 """
 from __future__ import annotations
 
@@ -38,7 +38,8 @@ from threadpoolctl import threadpool_limits
 from .augment import AugmentConfig
 from .augment_trial import try_augmentation
 from .bank import build_bank
-from .candidates import DEFAULT_CANDIDATES, CNN_EPOCHS, CNN_WORK_LIMIT, TIE, Candidate, candidates
+from .candidates import DEFAULT_CANDIDATES, CNN_EPOCHS, CNN_WORK_LIMIT, Candidate, candidates
+from .choice import choose, could_change, must_exceed
 from .classify import (
     Dataset,
     load_folder,
@@ -51,6 +52,7 @@ from .cross_validation import (
     answers_of,
     cnn_work,
     cross_validate,
+    cross_validate_against,
     fit_final,
     novelty_on,
     prepare_first_folds,
@@ -88,7 +90,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                    augment: AugmentConfig | None = None,
                    cnn_budget: float | None = None,
                    mains_notch: bool | None = None, jobs: int | None = None,
-                   progress: bool = True) -> TrainResult:
+                   progress: bool = True, every_fold: bool = False) -> TrainResult:
     """Train and evaluate a material classifier on a class-per-sub-folder dataset.
 
     ``out``: output folder (created). ``rate_hint``: the rate of CSV files that do not state
@@ -110,7 +112,10 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
     carries such lines, and kept when it costs no accuracy (:mod:`.mains_trial`).
     ``features`` with ``mains_notch`` set turns it on as well. ``jobs``: worker processes
     for the folds (None: every core, :func:`~.parallel.default_jobs`; the result does not
-    depend on it). ``progress``: a bar per phase on stderr.
+    depend on it). ``progress``: a bar per phase on stderr. ``every_fold``: cross-validate
+    every candidate on every fold, also one that can no longer change the choice (by
+    default it stops then, :mod:`.choice`: the same choice, but about once in a thousand
+    stops by the confidence bound).
     """
     augment = AugmentConfig() if augment is None else augment
     cnn_budget = CNN_WORK_LIMIT if cnn_budget is None else cnn_budget
@@ -135,7 +140,7 @@ def train_material(folder: str | os.PathLike | Dataset, out: str | os.PathLike, 
                     test_fraction, seed, jobs, Bars(progress))
         try:
             _cross_validate_candidates(run, candidates(run.setup, models, hidden, epochs),
-                                       cnn_budget)
+                                       cnn_budget, every_fold)
             chosen, why = choose(run.results, run.cands)
             cand = _mains_step(run, chosen, mains_notch)
             aug_report = _augmentation_step(run, cand, augment)
@@ -162,10 +167,12 @@ def _plan(ds: Dataset, setup: Setup, folds: int, test_fraction: float, seed: int
     return TrainingRun(ds, setup, labels, sel, train_idx, test_idx, seed, jobs, bars)
 
 
-def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_budget: float) -> None:
-    """The shared features, then every candidate's cross-validation (the CNN only within
-    its budget; no time cap on its fits: a cap would make its result depend on the
-    machine's load, the work rule bounds it instead)."""
+def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_budget: float,
+                               every_fold: bool = False) -> None:
+    """The shared features, then every candidate's cross-validation, cheapest first (the
+    CNN only within its budget; no time cap on its fits: a cap would make its result
+    depend on the machine's load, the work rule bounds it instead). A candidate stops as
+    soon as it can no longer change the choice (:mod:`.choice`; ``every_fold``: never)."""
     ds = run.ds
     t0 = time.perf_counter()
     run.bank = build_bank(run.setup, ds, cands, "clean",
@@ -194,39 +201,75 @@ def _cross_validate_candidates(run: TrainingRun, cands: list[Candidate], cnn_bud
                 cands.remove(cand)
                 continue
         t0 = time.perf_counter()
+        rival = None if every_fold or not run.folds else must_exceed(run.results, cands)
         done = run.bars(f"cross-validation: {cand.name}", len(run.folds))
-        ans = cross_validate(cand, cw, run.labels, run.folds, run.classes, run.seed,
-                             jobs=run.jobs, memo=run.memo, done=done,
-                             novelty=False) if run.folds else {}
+        if rival is not None:
+            trial = cross_validate_against(cand, cw, run.labels, run.folds, run.classes,
+                                           run.seed, run.oof[rival[0]], rival[1],
+                                           jobs=run.jobs, memo=run.memo, done=done)
+            ans = trial.answers
+        else:
+            trial = None
+            ans = cross_validate(cand, cw, run.labels, run.folds, run.classes, run.seed,
+                                 jobs=run.jobs, memo=run.memo, done=done,
+                                 novelty=False) if run.folds else {}
         run.oof[cand.name] = ans
-        table = accuracy_by_time(ans, run.labels) if ans else {}
-        run.results[cand.name] = {
-            "about": cand.about, "accuracy_by_time": table,
-            "mean_accuracy": mean_accuracy(table) if ans else math.nan,
-            "features_s": round(run.bank.seconds, 3) if cand.cols is not None else 0.0,
-            "cross_validation_s": round(time.perf_counter() - t0
-                                        + first_s.get(cand.name, 0.0), 3),
-            "fit_s": [round(s, 3) for s in cand.fit_s],
-            "inputs": int(cw.test[0].inputs.shape[1]) if len(cw.test[0]) else None}
+        run.results[cand.name] = _result(run, cand, ans, time.perf_counter() - t0
+                                         + first_s.get(cand.name, 0.0))
+        if trial is not None and trial.table is None:
+            _stopped(run.results[cand.name], trial, rival, len(run.folds))
     run.cands = cands
+    _complete_stopped(run)
     run.timing["cross_validation_s"] = sum(r["cross_validation_s"]
                                            for r in run.results.values())
 
 
-def choose(results: dict[str, dict], cands: list[Candidate]) -> tuple[str, str]:
-    """The cheapest candidate within :data:`TIE` of the best mean accuracy (candidates are
-    listed cheapest first), and why."""
-    scored = {k: v["mean_accuracy"] for k, v in results.items()
-              if math.isfinite(v["mean_accuracy"])}
-    if not scored:
-        name = "linear" if "linear" in results else next(iter(results))
-        return name, f"{name}: too few training recordings per class to cross-validate"
-    best = max(scored.values())
-    tied = [c.name for c in cands if c.name in scored and scored[c.name] >= best - TIE]
-    name = tied[0]
-    return name, (f"{name}: mean accuracy over the decision times {100 * scored[name]:.2f} "
-                  f"% (best {100 * best:.2f} %; candidates within {100 * TIE:g} points of "
-                  f"the best are tied and the cheapest of them wins)")
+def _result(run: TrainingRun, cand: Candidate, ans: dict, seconds: float) -> dict:
+    """A candidate's entry of the report: its accuracy on the folds it ran and its costs."""
+    cw = run.bank.view(cand)
+    table = accuracy_by_time(ans, run.labels) if ans else {}
+    return {"about": cand.about, "accuracy_by_time": table,
+            "mean_accuracy": mean_accuracy(table) if ans else math.nan,
+            "features_s": round(run.bank.seconds, 3) if cand.cols is not None else 0.0,
+            "cross_validation_s": round(seconds, 3),
+            "fit_s": [round(s, 3) for s in cand.fit_s],
+            "inputs": int(cw.test[0].inputs.shape[1]) if len(cw.test[0]) else None}
+
+
+def _stopped(res: dict, trial, rival: tuple[str, float], n_folds: int) -> None:
+    """Mark a candidate's entry as stopped early: its accuracy by decision time covers the
+    folds it ran; it takes no part in the choice (``mean_accuracy`` NaN)."""
+    res.update(mean_accuracy=math.nan, mean_accuracy_folds_run=mean_accuracy(
+        res["accuracy_by_time"]), folds_run=trial.folds_run,
+        mean_accuracy_at_most=trial.bound, bound_certain=trial.sure)
+    res["stopped"] = (f"at most {100 * trial.bound:.2f} % "
+                      f"({trial.stopped_because(n_folds)}), while it had to exceed "
+                      f"{100 * rival[1]:.2f} % ({rival[0]} plus the tie) to change the "
+                      "choice")
+    log.info("candidate stopped: %s", res["stopped"])
+
+
+def _complete_stopped(run: TrainingRun) -> None:
+    """Cross-validate on every fold each stopped candidate that could still change the
+    choice (a costlier winner came after it: :func:`~.choice.could_change`), until none
+    could (the folds it ran are reused from the memo)."""
+    while True:
+        todo = [c for c in run.cands if run.results[c.name].get("stopped")
+                and could_change(run.results, run.cands, c.name)]
+        if not todo:
+            return
+        cand = todo[0]
+        t0 = time.perf_counter()
+        done = run.bars(f"cross-validation: {cand.name} (completed)", len(run.folds))
+        ans = cross_validate(cand, run.bank.view(cand), run.labels, run.folds, run.classes,
+                             run.seed, jobs=run.jobs, memo=run.memo, done=done,
+                             novelty=False)
+        before = run.results[cand.name]["cross_validation_s"]
+        run.oof[cand.name] = ans
+        run.results[cand.name] = _result(run, cand, ans, before + time.perf_counter() - t0)
+        run.results[cand.name]["completed"] = "stopped early, then completed: a costlier " \
+            "winner came after it, and it might have tied that one"
+        log.info("candidate %s completed after a costlier winner", cand.name)
 
 
 def _mains_step(run: TrainingRun, chosen: str, mains_notch: bool | None) -> Candidate:

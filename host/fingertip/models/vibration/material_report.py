@@ -238,15 +238,22 @@ def plot_candidates(reports: dict[str, dict], path: str | os.PathLike) -> Path:
 
     fig, ax = plt.subplots(figsize=(6.0, 4.0), dpi=110)
     for k, (label, rep) in enumerate(reports.items()):
-        pts = [(c["cross_validation_s"], c["mean_accuracy"], n)
-               for n, c in rep["candidates"].items()
-               if c.get("mean_accuracy") is not None and math.isfinite(c["mean_accuracy"])
-               and c.get("cross_validation_s")]
+        # a candidate stopped early: its accuracy on the folds it ran, an open marker
+        pts = [(c["cross_validation_s"], c.get("mean_accuracy_folds_run", c["mean_accuracy"]),
+                n, bool(c.get("stopped"))) for n, c in rep["candidates"].items()
+               if c.get("cross_validation_s")]
+        pts = [p for p in pts if p[1] is not None and math.isfinite(p[1])]
         if not pts:
             continue
-        xs, ys, names = zip(*pts, strict=True)
-        ax.plot(xs, ys, "o", color=f"C{k}", label=label)
-        for x, y, n in pts:
+        full = [p for p in pts if not p[3]]
+        if full:
+            ax.plot([p[0] for p in full], [p[1] for p in full], "o", color=f"C{k}",
+                    label=label)
+        part = [p for p in pts if p[3]]
+        if part:
+            ax.plot([p[0] for p in part], [p[1] for p in part], "o", mfc="none",
+                    mec=f"C{k}", label=f"{label} (stopped early, folds run)")
+        for x, y, n, _ in pts:
             ax.annotate(n, (x, y), fontsize=6, xytext=(3, 2), textcoords="offset points")
             if n == rep["model"]:
                 ax.plot([x], [y], "o", ms=11, mfc="none", mec=f"C{k}")

@@ -56,16 +56,25 @@ MIN_PAIRED = 30
 """Recordings a trial must have answered before :func:`likely_at_most` judges it."""
 
 
-def _hits(a: Answers, label: int, times: Sequence[float | None]) -> list[float]:
-    """Right (1) or wrong (0) at each of ``times`` the recording lasted, as
-    :func:`accuracy_by_time` counts it."""
-    out = []
+def _hits(a: Answers, label: int, times: Sequence[float | None]) -> list[float | None]:
+    """Right (1) or wrong (0) at each of ``times``, as :func:`accuracy_by_time` counts it;
+    None where the recording had not lasted that long."""
+    out: list[float | None] = []
     for t in times:
         if t is not None and a.t_end[-1] < t - LASTED_TOL_S:
+            out.append(None)
             continue
         q = at_time(a.run, a.t_end, t)
         out.append(float(q is not None and int(np.argmax(q)) == label))
     return out
+
+
+def _paired(a: Answers, b: Answers, label: int, times: Sequence[float | None]) -> float:
+    """The mean difference of ``a``'s hits and ``b``'s on one recording, over the times
+    both count (two candidates' windows may end a frame apart: the CNN's own windows)."""
+    d = [x - y for x, y in zip(_hits(a, label, times), _hits(b, label, times), strict=True)
+         if x is not None and y is not None]
+    return float(np.mean(d)) if d else 0.0
 
 
 def likely_at_most(part: dict[int, Answers], every: dict[int, Answers], labels: np.ndarray,
@@ -85,9 +94,7 @@ def likely_at_most(part: dict[int, Answers], every: dict[int, Answers], labels: 
     rest = len(every) - len(seen)
     if len(seen) < MIN_PAIRED or rest <= 0:
         return math.inf
-    d = np.array([np.mean(np.subtract(_hits(part[i], labels[i], times),
-                                      _hits(every[i], labels[i], times)))
-                  for i in seen])
+    d = np.array([_paired(part[i], every[i], labels[i], times) for i in seen])
     diff = mean_accuracy(accuracy_by_time({i: part[i] for i in seen}, labels, times)) \
         - mean_accuracy(accuracy_by_time({i: every[i] for i in seen}, labels, times))
     se = float(np.std(d, ddof=1)) * math.sqrt(1 / len(seen) + 1 / rest)

@@ -10,12 +10,14 @@ inputs). Imports numpy and scipy only.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import scipy.fft
 from scipy.signal.windows import hann
 
 from .features import FeatureConfig, FeatureError, check_finite, to_working_rate
-from .mains import remove_mains
+from .mains import notch_lines, remove_mains
 
 
 class Stft:
@@ -121,16 +123,18 @@ class Spectrogrammer:
             st = self._stft[rate] = Stft(rate, self.cfg, self.dtype)
         return st
 
-    def __call__(self, x: np.ndarray, rate: float, what: str = "the recording"
-                 ) -> np.ndarray:
-        """(frames, bands) band power of samples ``x`` at ``rate``."""
+    def __call__(self, x: np.ndarray, rate: float, what: str = "the recording",
+                 lines: Sequence[float] | None = None) -> np.ndarray:
+        """(frames, bands) band power of samples ``x`` at ``rate``. ``lines``: the mains
+        lines of ``x`` (:func:`~.mains.find_mains_lines`) when found already (a trainer
+        searches each recording once); None: searched here when the features notch."""
         self.cfg.check_supports(rate, what)
         x = np.asarray(x)
         if x.ndim != 1:
             raise FeatureError(f"{what}: samples must be 1-D, not {x.shape}")
         check_finite(x, what, rate)
         if self.cfg.mains_notch:  # at the recording's own rate: finest lines, fewest samples
-            x = remove_mains(x, rate)
+            x = remove_mains(x, rate) if lines is None else notch_lines(x, rate, list(lines))
         y, r = to_working_rate(x, rate, self.cfg.canonical_rate)
         return self.stft(r).band_power(y)
 

@@ -66,9 +66,13 @@ def material_report_lines(rep: dict) -> list[str]:
         cost = c.get("cost", {})
         out.append(f"  {name:<9}{cells} {cost.get('parameters', 0):8,d} "
                    f"{cost.get('latency_model_ms', {}).get('p50', math.nan):9.3f} "
-                   f"{c.get('cross_validation_s', math.nan):8.1f}")
+                   f"{c.get('cross_validation_s', math.nan):8.1f}"
+                   + (f"  ({c['folds_run']} folds: stopped)" if c.get("stopped") else ""))
     for name, why in rep.get("candidates_skipped", {}).items():
         out.append(f"  {name:<9}skipped: {why}")
+    for name, c in rep["candidates"].items():
+        if c.get("stopped"):
+            out.append(f"  {name} stopped: {c['stopped']}")
     out.append(f"chosen: {rep['choice']}")
     if "mains_notch" in rep:
         out.append(f"mains notch: {rep['mains_notch']['why']}")

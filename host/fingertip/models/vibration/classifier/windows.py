@@ -2,6 +2,7 @@
 summaries, spectrogram windows or growing windows)."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,9 +103,10 @@ class FeaturePipeline:
         lv, cl = _window_stats(rec, t0, t1)
         return Windows(inputs, t0, t1, lv, cl)
 
-    def power(self, rec: Recording) -> np.ndarray:
-        """(frames, bands) band power of ``rec`` under this pipeline's features."""
-        return self.spectro(rec.samples, rec.rate, rec.source or "the recording")
+    def power(self, rec: Recording, lines: Sequence[float] | None = None) -> np.ndarray:
+        """(frames, bands) band power of ``rec`` under this pipeline's features
+        (``lines``: its mains lines, found already; see the :class:`Spectrogrammer`)."""
+        return self.spectro(rec.samples, rec.rate, rec.source or "the recording", lines)
 
     def _growing(self, rec: Recording, power: np.ndarray, training: bool,
                  prefixes: bool = False) -> Windows:
