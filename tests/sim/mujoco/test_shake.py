@@ -13,6 +13,7 @@ from fingertip.sim.mujoco.robot import MujocoWorld
 from fingertip.sim.mujoco.shake_model import vote
 from fingertip.sim.mujoco.boxes import BOX_X
 from fingertip.sim.mujoco.shake_trials import (
+    CLEAR_MM,
     GRIP_Z_MM,
     TRAY_OPEN_MM,
     ShakeTrial,
@@ -119,3 +120,35 @@ def test_the_tray_holds_below_its_friction_and_slides_above():
         moved[push] = d.qpos[tray] * 1e3
     assert moved[0.29] < 0.2 and moved[0.35] > 20.0
 
+
+def _displaced(world, box: int, dy_m: float, tray_m: float) -> None:
+    """Box ``box`` and its contents moved ``dy_m`` along y, its tray ``tray_m`` out: where a
+    box that turned in the grip lands (docs/mujoco.md)."""
+    m, d = world.m, world.d
+    b = world.scene.info["boxes"][box]
+    for body in [b["body"]] + [int(m.geom_bodyid[g]) for g in b["items"]]:
+        d.qpos[m.jnt_qposadr[m.body_jntadr[body]] + 1] += dy_m
+    d.qpos[b["tray_qpos"]] = tray_m
+    mujoco.mj_forward(m, d)
+
+
+def test_the_recipe_opens_a_box_that_landed_towards_its_pusher():
+    # Moved 4 mm towards f1 (0.6 mm from the tray's end when it stood square), its tray
+    # 2 mm out: straight down, f1's nail lands on the roof and the arm stops; coming down
+    # clear_mm aside and moving in (the recipe's setting for this hand), the box opens.
+    tr = ShakeTrial.draw(3)
+    assert tr.gaps_mm["f1"] < 4.0
+    where = (BOX_X[0] * 1e3, 0.0, GRIP_Z_MM)
+    outcome = {}
+    for clear in ((0.0, 0.0), CLEAR_MM):
+        world, hand, arm, _ = set_up(tr)
+        _displaced(world, 0, 0.004, 0.002)
+        cfg = hand_config()
+        cfg.clear_mm = clear
+        try:
+            outcome[clear] = open_box(hand, arm, where, cfg)
+        except RuntimeError as e:                     # the arm's collision stop
+            outcome[clear] = str(e)
+        tray = world.d.qpos[world.scene.info["boxes"][0]["tray_qpos"]] * 1e3
+    assert "did not reach" in outcome[(0.0, 0.0)]
+    assert outcome[CLEAR_MM] is True and tray >= TRAY_OPEN_MM
