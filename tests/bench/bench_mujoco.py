@@ -24,7 +24,7 @@
 - ``mujoco_shake_pick_success`` (of the paper's 56) on the four-finger hand over two closed
   boxes whose contents (free bodies) rattle in MuJoCo, with the recipe of
   ``tasks/shake_pick.py`` and a shake classifier trained the same way on shakes recorded on
-  MuJoCo (``sim/mujoco/shake_model.py``; today's world's classifier votes 34 of 96 MuJoCo
+  MuJoCo (``sim/mujoco/shake_model.py``; today's world's classifier votes 39 of 112 MuJoCo
   boxes right: docs/mujoco.md), beside ``mujoco_shake_pick_world_success``, today's world's
   56 trials with the same seeds and its own classifier; the box votes on the MuJoCo shakes,
   per content, and the contents' wall impacts per shake in both worlds.
