@@ -302,7 +302,10 @@ def shake_figures(trials: int = 56) -> dict[str, float]:
         out[f"mujoco_shake_world_{content}_impacts_median"] = float(np.median(
             [len(BoxShake(content, items=b["items"]).events()["impact_times_s"])
              for b in theirs])) if theirs else float("nan")
-    for mode, n in s["failure_modes"].items():
+    # The modes described below always reported, 0 when none: a run keeps earlier keys it
+    # did not write, so a mode that vanished would otherwise keep its old count.
+    for mode, n in (dict.fromkeys(("arm blocked", "not opened"), 0)
+                    | s["failure_modes"]).items():
         out[f"mujoco_shake_failed_{mode.replace(' ', '_')}"] = n
     return out
 
