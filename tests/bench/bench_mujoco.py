@@ -24,7 +24,7 @@
 - ``mujoco_shake_pick_success`` (of the paper's 56) on the four-finger hand over two closed
   boxes whose contents (free bodies) rattle in MuJoCo, with the recipe of
   ``tasks/shake_pick.py`` and a shake classifier trained the same way on shakes recorded on
-  MuJoCo (``sim/mujoco/shake_model.py``; today's world's classifier votes 34 of 96 MuJoCo
+  MuJoCo (``sim/mujoco/shake_model.py``; today's world's classifier votes 39 of 112 MuJoCo
   boxes right: docs/mujoco.md), beside ``mujoco_shake_pick_world_success``, today's world's
   56 trials with the same seeds and its own classifier; the box votes on the MuJoCo shakes,
   per content, and the contents' wall impacts per shake in both worlds.
@@ -302,7 +302,10 @@ def shake_figures(trials: int = 56) -> dict[str, float]:
         out[f"mujoco_shake_world_{content}_impacts_median"] = float(np.median(
             [len(BoxShake(content, items=b["items"]).events()["impact_times_s"])
              for b in theirs])) if theirs else float("nan")
-    for mode, n in s["failure_modes"].items():
+    # The modes described below always reported, 0 when none: a run keeps earlier keys it
+    # did not write, so a mode that vanished would otherwise keep its old count.
+    for mode, n in (dict.fromkeys(("arm blocked", "not opened"), 0)
+                    | s["failure_modes"]).items():
         out[f"mujoco_shake_failed_{mode.replace(' ', '_')}"] = n
     return out
 

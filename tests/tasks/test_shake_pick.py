@@ -8,7 +8,7 @@ import pytest
 
 import fingertip.tasks as tasks
 from fingertip.sim.experiment import BOX_GRIP_Z_MM, run_shake, shake_table
-from fingertip.tasks.shake_pick import ShakeConfig, read_box, shake_and_pick
+from fingertip.tasks.shake_pick import ShakeConfig, aside, read_box, shake_and_pick
 from fingertip.sim.world.boxes import BOX_X_MM, make_box_world
 
 TRIALS = 8
@@ -93,3 +93,16 @@ def test_recipes_do_not_import_the_simulation(module):
     names += [a.name for n in ast.walk(ast.parse(src)) if isinstance(n, ast.Import)
               for a in n.names]
     assert not [m for m in names if "sim" in m.split(".")], names
+
+
+def test_stepping_aside_and_opening_lower_run_unchanged_in_this_world(clf):
+    # The MuJoCo hand's settings (tasks/shake_pick.py's clear_mm and open_dz_mm): the same
+    # recipe, the same result here, the arm's extra moves included.
+    cfg = ShakeConfig(clear_mm=(0.0, 7.0), open_dz_mm=-18.0)
+    assert aside((-80.0, 0.0, 40.0), cfg) == (-80.0, 7.0, 40.0)
+    world, hand, arm = make_box_world(2)
+    target = world.boxes[1].content
+    r = shake_and_pick(hand, arm, clf, [(x, 0.0, BOX_GRIP_Z_MM) for x in BOX_X_MM], target, cfg)
+    assert r.failure is None and r.chosen == 1 and world.opened == 1
+    assert arm.position() == (BOX_X_MM[1], 0.0, BOX_GRIP_Z_MM - 18.0)
+    assert all(b.predictions == 46 for b in r.readings)

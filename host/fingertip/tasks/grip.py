@@ -138,6 +138,8 @@ class Grip:
         self._arrival = 0.0
         self.now = 0.0
         """Time (the frames' host clock) of the latest frame set."""
+        self.frames: FrameSet = {}
+        """The latest frame set read (every finger's, for an ``on_frame`` that needs more)."""
 
     def _abort(self, outcome: PinchOutcome, detail: str) -> bool:
         if self.arm is not None:
@@ -153,6 +155,7 @@ class Grip:
             self._abort(PinchOutcome.SENSOR_FAULT, "no frames")
             return None
         self.result.frames += 1
+        self.frames = frames
         arrival = max(fr.arrival_time for fr in frames.values())
         self.now = max(fr.host_time for fr in frames.values())
         self._t0 = self.now if self._t0 is None else self._t0

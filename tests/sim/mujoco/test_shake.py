@@ -3,14 +3,17 @@ whose contents are free bodies; `make bench` runs the paper's 56 trials
 (`mujoco_shake_pick_success`, beside today's world's)."""
 from __future__ import annotations
 
+import mujoco
 import numpy as np
+import pytest
 
 from fingertip.sim.mujoco.box_sound import BoxSound
-from fingertip.sim.mujoco.boxes import BoxFill, box_pair
+from fingertip.sim.mujoco.boxes import HALF, ITEM_REACH, WALL, BoxFill, box_pair, item_places
 from fingertip.sim.mujoco.robot import MujocoWorld
 from fingertip.sim.mujoco.shake_model import vote
 from fingertip.sim.mujoco.boxes import BOX_X
 from fingertip.sim.mujoco.shake_trials import (
+    CLEAR_MM,
     GRIP_Z_MM,
     TRAY_OPEN_MM,
     ShakeTrial,
@@ -81,3 +84,86 @@ def test_a_vote_over_silence_is_none(shake_clf):
 
     v, shares = vote(shake_clf, AudioBlock(np.zeros(0, np.float32), 44100.0, 0.0), 0.1)
     assert v is None and shares == {}
+
+
+def test_items_start_side_by_side_and_none_sinks_into_the_floor():
+    # Items that started overlapping (or stacked) were thrown into the 2 mm tray floor: seeds
+    # 1, 2 and 28 each had one wedged between the tray's and the sleeve's floors, which
+    # dragged the tray out while the box stood untouched.
+    free = np.array([0.021, 0.021])
+    p = item_places(14, free, np.random.default_rng(0))
+    gaps = np.hypot(*(p[:, None] - p[None]).transpose(2, 0, 1))[np.triu_indices(14, 1)]
+    assert gaps.min() >= 2 * ITEM_REACH and np.abs(p).max() <= 0.021
+    with pytest.raises(ValueError, match="no room for 17 items"):
+        item_places(17, free, np.random.default_rng(0))
+    for seed in (1, 2, 28):
+        scene = box_pair(ShakeTrial.draw(seed).fills, seed)
+        m, d = scene.model, scene.data
+        for b in scene.info["boxes"]:
+            floor_top = d.xpos[b["body"]][2] - HALF[2] + 2 * WALL
+            z = [d.xpos[m.geom_bodyid[g]][2] for g in b["items"]]
+            assert min(z) > floor_top + 0.001, (seed, b["content"])
+
+
+def test_the_tray_holds_below_its_friction_and_slides_above():
+    # MuJoCo's default joint friction crept 13 mm in 2 s under 0.1 N.
+    scene = box_pair((BoxFill("screws", 0), BoxFill("screws", 0)), seed=0, settle_s=0.0)
+    m, d = scene.model, scene.data
+    tray = scene.info["boxes"][0]["tray_qpos"]
+    dof = next(int(m.jnt_dofadr[j]) for j in range(m.njnt) if m.jnt_qposadr[j] == tray)
+    moved = {}
+    for push in (0.29, 0.35):
+        mujoco.mj_resetData(m, d)
+        d.qfrc_applied[dof] = push
+        while d.time < 2.0:
+            mujoco.mj_step(m, d)
+        moved[push] = d.qpos[tray] * 1e3
+    assert moved[0.29] < 0.2 and moved[0.35] > 20.0
+
+
+def _displaced(world, box: int, dy_m: float, tray_m: float) -> None:
+    """Box ``box`` and its contents moved ``dy_m`` along y, its tray ``tray_m`` out: where a
+    box that turned in the grip lands (docs/mujoco.md)."""
+    m, d = world.m, world.d
+    b = world.scene.info["boxes"][box]
+    for body in [b["body"]] + [int(m.geom_bodyid[g]) for g in b["items"]]:
+        d.qpos[m.jnt_qposadr[m.body_jntadr[body]] + 1] += dy_m
+    d.qpos[b["tray_qpos"]] = tray_m
+    mujoco.mj_forward(m, d)
+
+
+def test_the_arm_steps_aside_before_rising_off_a_box_that_landed_towards_the_pusher(
+        shake_clf):
+    # Seed 5's screw box turns in the grip and lands 3.6-3.9 mm towards f1 (0.3-1.3 mm from
+    # the tray's end when it stood square), its tray jolted 1.6-2.2 mm out: f1's nail sits in
+    # the sleeve's mouth. Rising straight up, it lifted the box by its roof and dropped it
+    # 27 mm away; stepping clear_mm aside first (the recipe's setting for this hand), the box
+    # stays where it landed.
+    tr = ShakeTrial.draw(5)
+    assert tr.fills[0].content == "screws"
+    where = (BOX_X[0] * 1e3, 0.0, GRIP_Z_MM)
+    moved = {}
+    for clear in ((0.0, 0.0), CLEAR_MM):
+        world, hand, arm, _ = set_up(tr)
+        body = world.scene.info["boxes"][0]["body"]
+        start = world.d.xpos[body].copy()
+        cfg = hand_config()
+        cfg.clear_mm = clear
+        assert read_box(hand, arm, shake_clf, where, cfg).failure is None
+        landed = world.d.xpos[body].copy()
+        arm.move_to(BOX_X[1] * 1e3, 0.0, GRIP_Z_MM)                 # on to the other box
+        moved[clear] = (np.linalg.norm(landed - start) * 1e3,
+                        np.linalg.norm(world.d.xpos[body] - landed) * 1e3)
+    assert 2.0 < moved[CLEAR_MM][0] < 6.0 and moved[CLEAR_MM][1] < 0.5
+    assert moved[(0.0, 0.0)][1] > 10.0
+
+
+def test_opening_finds_the_end_of_a_tray_that_landed_away_from_the_pusher():
+    # A box put back 4.5 mm further from f1 than it stood (seed 6's landed 4.6 mm away): the
+    # push from f1's start, 12 mm, left that tray 4.3 mm out; the push past f1's touch opens it.
+    tr = ShakeTrial.draw(3)
+    world, hand, arm, _ = set_up(tr)
+    _displaced(world, 0, -0.0045, 0.0)
+    assert open_box(hand, arm, (BOX_X[0] * 1e3, 0.0, GRIP_Z_MM), hand_config())
+    tray = world.d.qpos[world.scene.info["boxes"][0]["tray_qpos"]] * 1e3
+    assert TRAY_OPEN_MM <= tray < 10.0

@@ -35,9 +35,19 @@ WALL = 0.002
 BOX_X = (-0.08, 0.08)
 """The boxes' centres on the table (m), as today's world's (-80, +80) mm."""
 TRAY_FRICTION_N = 0.3
+TRAY_FRICTION_SOLREF = (0.004, 1.0)
+TRAY_FRICTION_SOLIMP = (0.999, 0.999, 0.001)
+"""MuJoCo's joint friction is a soft constraint: with its default softness (0.02 s; 0.9-0.95)
+the tray crept 13 mm in 2 s under 0.1 N, a third of its friction, and a tray's end plate
+nudged by a rolling screw slid out. Stiffened (the shortest stable time constant, two 2 ms
+steps, and an impedance of 0.999) it creeps under 0.1 mm in 2 s at 0.29 N and slides above
+0.3 N, as the dry friction it stands for (tests/sim/mujoco/test_shake.py)."""
 TRAY_TRAVEL = 0.035
 BOX_FRICTION = 0.8
 """Nail on cardboard (MuJoCo takes the larger of two geoms' friction)."""
+ITEM_REACH = 0.0065
+"""The largest item's reach from its centre in the tray's plane (m): a screw's half length
+with its rounded end (5 + 1.5 mm); a rubber band's disc has 6 mm."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +73,23 @@ def _item(b: int, i: int, content: str, pos: np.ndarray, yaw: float) -> str:
                 f'rgba="0.85 0.45 0.3 1"/>')
     return (f'<body name="{name}" pos="{pos[0]:.5f} {pos[1]:.5f} {pos[2]:.5f}" '
             f'quat="{quat}"><freejoint/>{geom}</body>')
+
+
+def item_places(n: int, free: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``n`` starting places (x, y) within +-``free`` (m): random cells of a grid whose
+    pitch is at least twice ``ITEM_REACH``, each place jittered within its cell, so that no
+    two items start overlapping. Items that overlap, or fall onto one another from stacked
+    layers, are thrown apart by the contact solver fast enough to sink into the 2 mm tray
+    floor, where one wedged between the tray's and the sleeve's floors drags the tray out."""
+    cells = np.floor(2 * free / (2 * ITEM_REACH)).astype(int) + 1
+    pitch = 2 * free / np.maximum(cells - 1, 1)
+    if n > cells.prod():
+        raise ValueError(f"no room for {n} items on the tray's floor (at most "
+                         f"{cells.prod()})")
+    pick = rng.choice(cells.prod(), size=n, replace=False)
+    ij = np.stack([pick // cells[1], pick % cells[1]], axis=1)
+    jitter = rng.uniform(-1, 1, (n, 2)) * (pitch / 2 - ITEM_REACH)
+    return np.clip(-free + ij * pitch + jitter, -free, free)
 
 
 def _box(b: int, x: float, fill: BoxFill, rng: np.random.Generator) -> str:
@@ -91,12 +118,11 @@ def _box(b: int, x: float, fill: BoxFill, rng: np.random.Generator) -> str:
         f'mass="{tray_m * 0.25:.5f}" {card}/>',
         f'<geom name="box{b}_tray_ny" type="box" size="{ix} {t} {iz}" pos="0 {-hy + t} 0" '
         f'mass="{tray_m * 0.25:.5f}" {card}/>']
-    # The items dropped in a loose grid over the tray's floor (they settle before the trial).
+    # The items dropped side by side onto the tray's floor (they settle before the trial).
     free = np.array([ix - 0.007, hy - WALL - 0.007])
     items = []
-    for i in range(fill.items):
-        p = rng.uniform(-free, free)
-        z = -iz + WALL + 0.004 + 0.004 * (i % 3)
+    for i, p in enumerate(item_places(fill.items, free, rng)):
+        z = -iz + WALL + 0.002
         items.append(_item(b, i, fill.content, np.array([x + p[0], p[1], hz + z]),
                            float(rng.uniform(0, 2 * np.pi))))
     return f'''
@@ -105,7 +131,9 @@ def _box(b: int, x: float, fill: BoxFill, rng: np.random.Generator) -> str:
       {"".join(sleeve)}
       <body name="box{b}_tray">
         <joint name="box{b}_tray" type="slide" axis="0 -1 0" range="0 {TRAY_TRAVEL}"
-               frictionloss="{TRAY_FRICTION_N}" damping="0.5"/>
+               frictionloss="{TRAY_FRICTION_N}" damping="0.5"
+               solreffriction="{TRAY_FRICTION_SOLREF[0]} {TRAY_FRICTION_SOLREF[1]}"
+               solimpfriction="{' '.join(map(str, TRAY_FRICTION_SOLIMP))}"/>
         {"".join(tray)}
       </body>
     </body>

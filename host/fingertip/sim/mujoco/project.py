@@ -65,6 +65,7 @@ __all__ = [
     "pinch", "PinchConfig", "place", "Realism", "RobotArm", "RobotHand", "unit_force_model",
     "SimulatedSource", "unstack", "VirtualStrainSensor",
     "cache_dir", "cached", "fit_key", "LiveShakeClassifier", "models_dir", "physics_dir",
+    "tasks_dir",
     "read_box",
     "train_shake", "version", "majority_vote",
     "ShakeConfig", "shake_and_pick", "VibrationClassifier", "make_box_world", "shake_model_path",
@@ -81,6 +82,12 @@ def physics_dir() -> Path:
     from .. import physics
 
     return Path(physics.__file__).parent
+
+
+def tasks_dir() -> Path:
+    from ... import tasks
+
+    return Path(tasks.__file__).parent
 
 
 def models_dir() -> Path:

@@ -217,22 +217,25 @@ class MujocoArm(RobotArm):
     STALL_S = 0.2
 
     def __init__(self, world: MujocoWorld, travel_z_mm: float | None = None,
-                 speed_mm_s: float | None = None) -> None:
-        """``travel_z_mm``: a move with a horizontal part goes up to this height first, across,
-        then down (as a robot's planner avoids what stands between two places); None: one
-        straight move. ``speed_mm_s``: moves go along a straight line at this speed and end
-        where the arm stops within ``STALL_MM`` of the goal (pressing what it holds on the
-        table, as a robot's compliant servo does); None: the servos' targets jump to the goal
-        and the move ends within ``SETTLE_MM`` of it."""
+                 speed_mm_s: float | None = None, straight_mm: float = 1.0) -> None:
+        """``travel_z_mm``: a move with a horizontal part longer than ``straight_mm`` goes up
+        to this height first, across, then down (as a robot's planner avoids what stands
+        between two places; a shorter one, stepping aside at the same place, goes straight);
+        None: one straight move. ``speed_mm_s``: moves go along a straight line at this
+        speed and end where the arm stops within ``STALL_MM`` of the goal (pressing what it
+        holds on the table, as a robot's compliant servo does); None: the servos' targets
+        jump to the goal and the move ends within ``SETTLE_MM`` of it."""
         self.world = world
         self.travel_z_mm = travel_z_mm
         self.speed_mm_s = speed_mm_s
+        self.straight_mm = straight_mm
         self._qadr = [int(world.m.jnt_qposadr[world.m.actuator_trnid[a, 0]])
                       for a in ARM_ACTUATORS]
 
     def move_to(self, x_mm: float, y_mm: float, z_mm: float) -> None:
         here = self.world.arm_target * 1e3
-        if self.travel_z_mm is not None and math.hypot(x_mm - here[0], y_mm - here[1]) > 1.0:
+        across = math.hypot(x_mm - here[0], y_mm - here[1])
+        if self.travel_z_mm is not None and across > self.straight_mm:
             top = max(self.travel_z_mm, z_mm)
             self._move(here[0], here[1], top)
             self._move(x_mm, y_mm, top)

@@ -161,11 +161,18 @@ def write_shakes(folder: Path, per_class: int = PER_CLASS, clf=None) -> None:
 def mujoco_shake_model_path(per_class: int = PER_CLASS) -> Path:
     """The MLP shake classifier trained on MuJoCo shakes (cached; minutes the first time)."""
     from . import __file__ as here
-    from .project import VibrationClassifier, models_dir, physics_dir, shake_model_path
+    from .project import (
+        VibrationClassifier,
+        models_dir,
+        physics_dir,
+        shake_model_path,
+        tasks_dir,
+    )
 
+    # The recipe records the shakes (read_box), so its code is part of the key.
     key = fit_key({"per_class": per_class, "seed": TRAIN_SEED, "fills": TRAIN_FILLS,
                    "models": "mlp", "train_seed": 0},
-                  [Path(here).parent, physics_dir(), models_dir()], version())
+                  [Path(here).parent, physics_dir(), models_dir(), tasks_dir()], version())
 
     world_model = shake_model_path()
     name = f"mujoco-shake-mlp-{per_class}-{key}"

@@ -32,27 +32,42 @@ from .robot import HAND_UNIT, MujocoWorld, MujocoArm, make_hand
 log = logging.getLogger(__name__)
 
 ARM_HOME_Z = 0.2
-GRIP_NAIL_Z = 0.012
-"""The nails' lower edge above the table while gripping a box (m): on its sides' lower half."""
+GRIP_NAIL_Z = 0.030
+"""The nails' lower edge above the table while gripping a box (m): above its centre of mass
+(20-22 mm; contents on the floor lower it), so that the box hangs from the line between the
+nails instead of balancing on it. Gripped at 12 mm, 8 mm under it, a box whose screws rolled
+to one end toppled about that line to 20-25 degrees (docs/mujoco.md)."""
 GRIP_Z_MM = (GRIP_NAIL_Z - (ARM_HOME_Z - nail_low_z())) * 1e3
-TRAVEL_Z_MM = GRIP_Z_MM + 2 * HALF[2] * 1e3 + 25.0
-"""Between places the nails pass 25 mm above the boxes' roofs."""
+TRAVEL_Z_MM = (0.081 - (ARM_HOME_Z - nail_low_z())) * 1e3
+"""Between places the nails' lower edge passes 81 mm above the table, 37 mm above the boxes'
+roofs."""
 ARM_SPEED_MM_S = 100.0
 """The arm's moves between places (its shake is the recipe's)."""
+STRAIGHT_MM = 15.0
+"""The arm steps aside (the recipe's ``clear_mm``) without rising."""
+CLEAR_MM = (0.0, 7.0)
+"""The recipe's ``clear_mm``: the pusher ``f1`` stands at +y, 0.3-1.3 mm from the tray's end;
+a box put back lands up to 5 mm from where it stood (docs/mujoco.md), and ``f3`` at -y has
+14.5 mm."""
 TRAY_OPEN_MM = 6.0
 """As today's world's ``tray_open_mm``."""
 MATERIALS = ("screws", "rubber_bands")
+OPEN_NAIL_Z = 0.012
+"""Opening, the nails' lower edge is this high (m): gripped at ``GRIP_NAIL_Z`` the pusher's
+fingertip met the sleeve's roof when the tray had gone 4 mm (the recipe's ``open_dz_mm``)."""
 
 
-PUSH_MM = 12.0
+PUSH_MM = 9.0
 
 
 def hand_config() -> ShakeConfig:
-    """The recipe's settings for this hand (the rest its defaults): the pusher's command
-    goes 12 mm instead of 8, as the finger's position servo lags its command by 1.8 mm at the
+    """The recipe's settings for this hand (the rest its defaults): the pusher goes 9 mm past
+    its touch instead of 8, as the finger's position servo lags its command by 1.8 mm at the
     push's 20 mm/s (0.25 mm per 80 Hz frame) against the tray's 0.3 N: the tray then slides
-    out 6 mm or more from any start gap (0.3-1.3 mm). The world's fingers have no lag."""
-    return ShakeConfig(push_mm=PUSH_MM)
+    out about 8 mm (the world's fingers have no lag); ``clear_mm`` (``CLEAR_MM``) and
+    ``open_dz_mm`` (``OPEN_NAIL_Z``), below."""
+    return ShakeConfig(push_mm=PUSH_MM, clear_mm=CLEAR_MM,
+                       open_dz_mm=(OPEN_NAIL_Z - GRIP_NAIL_Z) * 1e3)
 
 
 @dataclass
@@ -88,7 +103,8 @@ def set_up(tr: ShakeTrial, default_chain: bool = False):
         chain.gain, chain.mains_hz = tr.preamp_gain, tr.mains_hz
     sound = BoxSound(world.m, world.d, scene.info["boxes"], world.sensors["f0"], tr.seed)
     world.updates.append(sound.update)
-    arm = MujocoArm(world, travel_z_mm=TRAVEL_Z_MM, speed_mm_s=ARM_SPEED_MM_S)
+    arm = MujocoArm(world, travel_z_mm=TRAVEL_Z_MM, speed_mm_s=ARM_SPEED_MM_S,
+                    straight_mm=STRAIGHT_MM)
     hand = make_hand(world, seeds)
     return world, hand, arm, sound
 
