@@ -68,23 +68,18 @@ class DeviceProbe:
         host that comes late to read loses none of the action (what arrived late but was
         made before the frames that came before ``since`` does not count)."""
         queued = self.ft.drain()
-        rows, t_first = [], None
+        kept: list[Frame] = []
         if since is not None:
             before = [f.device_time_us for f in queued if f.arrival_time < since]
-            rows = [f for f in queued if f.arrival_time >= since
+            kept = [f for f in queued if f.arrival_time >= since
                     and (not before or f.device_time_us > before[-1])]
-            if rows:
-                t_first = rows[0].device_time_us * 1e-6
-                end = next((k for k, f in enumerate(rows)
-                            if f.device_time_us * 1e-6 - t_first >= seconds), None)
-                if end is not None:
-                    rows = rows[:end + 1]
-                self._note(rows[-1])
-                if end is not None:
-                    return self._segment(rows)
+        pending = iter(kept)
+        rows, t_first = [], None
         deadline = time.monotonic() + seconds * 4 + timeout
         while time.monotonic() < deadline:
-            f = self.ft.read(timeout=0.5)
+            f = next(pending, None)
+            if f is None:
+                f = self.ft.read(timeout=0.5)
             if f is None:
                 if rows and time.monotonic() > deadline - timeout:
                     break
@@ -92,16 +87,10 @@ class DeviceProbe:
             t = f.device_time_us * 1e-6
             t_first = t if t_first is None else t_first
             rows.append(f)
-            self._note(f)
+            self.last_time_s = t
+            self.host_minus_device_s = f.host_time - t
             if t - t_first >= seconds:
                 break
-        return self._segment(rows)
-
-    def _note(self, f: Frame) -> None:
-        self.last_time_s = f.device_time_us * 1e-6
-        self.host_minus_device_s = f.host_time - self.last_time_s
-
-    def _segment(self, rows: list[Frame]) -> Segment:
         n, c, cols = len(rows), self.channels, self._cols
         counts = np.full((n, c), np.nan)
         tmask = np.zeros(n, np.int64)
