@@ -61,9 +61,16 @@ def test_twin_matches_the_firmware(make_sim):
     ]
     for cmd, n_answers in script:
         data = cmd if isinstance(cmd, bytes) else encode(cmd)
+        # The command reaches both at the same simulated time, however late the host is
+        # to write it: the simulation waits while it is written.
+        sim.hold()
+        t_twin = int(sim.time_us())
+        assert twin.advance(t_twin) == b"", f"the twin spoke before {cmd}"
         port.write(data)
+        sim.go()
         got = b"".join(wire.frames(n_answers, timeout=15))
-        # Keep the twin at the firmware's simulated time (a tare takes time on both).
+        # The firmware takes the command ~1 ms later (its UART bytes) and a tare takes time
+        # on both: run the twin on to just past the firmware's answer.
         t_twin = int(sim.time_us()) + 1_000
         want = twin.receive(data) + twin.advance(t_twin)
         assert got == want, f"{cmd}: firmware {got.hex()} twin {want.hex()}"
