@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from fingertip.protocol import (
     GetInfo, GetStats, Info, Ping, ResetCounters, Sample, SetGain, SetPower, SetRate,
     SetTareOffsets, Start, Stats, Stop, StreamDecoder, Tare, encode, seal,
@@ -36,7 +38,8 @@ class Wire:
         return out
 
 
-def test_twin_matches_the_firmware(make_sim):
+@pytest.mark.parametrize("host_delay_s", [0.0, 0.03], ids=["prompt-host", "late-host"])
+def test_twin_matches_the_firmware(make_sim, host_delay_s):
     sim = make_sim(4)
     for c, v in enumerate(INPUTS):
         sim.set(c, v)
@@ -61,6 +64,7 @@ def test_twin_matches_the_firmware(make_sim):
     ]
     for cmd, n_answers in script:
         data = cmd if isinstance(cmd, bytes) else encode(cmd)
+        time.sleep(host_delay_s)  # a busy host: the firmware runs on meanwhile
         # The command reaches both at the same simulated time, however late the host is
         # to write it: the simulation waits while it is written.
         sim.hold()
