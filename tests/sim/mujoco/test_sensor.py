@@ -9,6 +9,7 @@ from scipy.signal import welch
 from fingertip.sim.mujoco import FingertipSensor, attach_fingertip, geometry
 from fingertip.sim.mujoco.drive import press_and_slide, run
 from fingertip.sim.mujoco.scenes import EDGE_DOWN, NAIL_DOWN, probe
+from fingertip.sim.mujoco.sensor import DEBOUNCE_S, REFLEX_AUDIO
 from fingertip.hardware import load
 from fingertip.sim.physics import Realism, VirtualStrainSensor
 
@@ -253,3 +254,43 @@ def test_the_physics_step_changes_neither_counts_nor_audio_bands():
         assert np.all(np.abs(slide.mean(0) - slide0.mean(0)) < scatter)
         # The audio's band energies within 2 dB.
         np.testing.assert_array_less(np.abs(energy - energy0), 2.0)
+
+
+def test_reflex_audio_comes_within_a_block_of_the_sound_and_sounds_the_same():
+    # A reflex hears the piezo as soon as a low-latency capture would deliver it; the
+    # defaults render DEBOUNCE_S behind the physics in long blocks. Same sound either way.
+    sc = probe(("tpu",))
+    kw = dict(fidelity="full", realism=Realism.none(), materials=sc.materials)
+    streams = {"default": FingertipSensor(sc.model, sc.data, sc.tips["tip"], **kw),
+               "reflex": FingertipSensor(sc.model, sc.data, sc.tips["tip"], **kw,
+                                         **REFLEX_AUDIO)}
+    with pytest.raises(ValueError, match="audio_lag_s"):
+        FingertipSensor(sc.model, sc.data, sc.tips["tip"], **kw, audio_lag_s=-0.01)
+    control = press_and_slide(t_press=0.3, t_slide=0.6)
+    audio = {k: [] for k in streams}
+    heard: dict[str, tuple[float, float]] = {}   # (time of the touch's first sound, sim time)
+    d = sc.data
+    while d.time < 1.0:
+        control(d.time, d)
+        mujoco.mj_step(sc.model, d)
+        for k, s in streams.items():
+            s.step()
+            for b in s.audio():
+                audio[k].append(b.samples)
+                loud = np.flatnonzero(np.abs(b.samples) > 1e-4)
+                if k not in heard and loud.size:
+                    heard[k] = (b.t0 + loud[0] / b.fs, d.time)
+    (t_fast, at_fast), (t_slow, at_slow) = heard["reflex"], heard["default"]
+    assert t_fast == pytest.approx(t_slow, abs=1e-4)               # the touch, at 0.3 s
+    block_s = REFLEX_AUDIO["audio_block"] / 44100
+    assert at_fast - t_fast <= block_s + sc.model.opt.timestep     # 11.6 ms at most
+    assert at_slow - t_slow >= DEBOUNCE_S                          # 20 ms and more
+    fast, slow = (np.concatenate(audio[k]) for k in ("reflex", "default"))
+    n = min(len(fast), len(slow))
+    # Identical up to the slide; then MuJoCo lets the sliding nail hop, and a hop longer
+    # than DEBOUNCE_S is a release whose click the reflex stream can only place late.
+    press = int(0.6 * 44100)
+    assert n > press + 0.2 * 44100
+    np.testing.assert_allclose(fast[:press], slow[:press], atol=1e-6)
+    rms = [float(np.sqrt(np.mean(x[press:n] ** 2))) for x in (fast, slow)]
+    assert rms[0] == pytest.approx(rms[1], rel=0.1)

@@ -19,6 +19,7 @@ servo past the object's face, a lift of 15 mm, then :func:`~fingertip.tasks.hold
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from .gripper import ARM_HOME_Z, FINGER_KP, FINGER_OPEN_Y, LINK_LENGTH, gripper_
 from .project import HELD_OBJECTS, HoldConfig, hold
 from .robot import HAND_UNIT, MujocoArm, MujocoHand, MujocoWorld
 from .scenes import Scene
+from .sensor import REFLEX_AUDIO
 
 BAR_HALF = (0.002, 0.015, 0.03)
 """Half sizes of the held bar (m): 4 mm along the prisms, 30 mm between the pads, 60 mm
@@ -85,8 +87,11 @@ def face_gap_mm() -> float:
     return (FINGER_OPEN_Y - geometry().half_width - BAR_HALF[1]) * 1e3
 
 
-def hold_trial(seed: int, reflex: str = "fused") -> dict:
-    """One trial (see the module text); what the recipe did and the truth."""
+def hold_trial(seed: int, reflex: str = "fused",
+               audio: Mapping[str, float] = REFLEX_AUDIO) -> dict:
+    """One trial (see the module text); what the recipe did and the truth. ``audio``: the
+    piezo's block and lag (``FingertipSensor``); ``{}`` gives the sensor's defaults, which
+    deliver the sound up to 113 ms late."""
     names = list(HELD_OBJECTS)
     rng = np.random.default_rng(np.random.SeedSequence([seed, 0x5A1]))
     obj = HELD_OBJECTS[names[seed % len(names)]]
@@ -96,7 +101,8 @@ def hold_trial(seed: int, reflex: str = "fused") -> dict:
     scene = hold_scene(obj.mass_kg, obj.friction)
     d = scene.data
     seeds = {"left": HAND_UNIT, "right": HAND_UNIT + 1}
-    world = MujocoWorld(scene, seeds, fidelity="full" if reflex == "fused" else "strain")
+    world = MujocoWorld(scene, seeds, fidelity="full" if reflex == "fused" else "strain",
+                        **audio)
     hand = MujocoHand(world, seeds)             # tares open
     arm = MujocoArm(world)
     down = (BAR_HALF[2] - (ARM_HOME_Z - LINK_LENGTH)) * 1e3   # the pads at the bar's middle

@@ -49,7 +49,14 @@ IMPACT_N_PER_MM_S = 0.004
 RELEASE_FRACTION = 0.35
 DEBOUNCE_S = 0.02
 """A contact gap shorter than this is MuJoCo's flicker of a sliding contact, not a release
-(the piezo renders this much behind the physics, so a release lands where it began)."""
+(by default the piezo renders this much behind the physics, so a release lands where it
+began)."""
+REFLEX_AUDIO = {"audio_block": 512, "audio_lag_s": 0.0}
+"""Audio options for a loop that reacts to the piezo (a slip reflex): blocks as soon as a
+sound card at its driver's low latency would deliver them (512 samples, 11.6 ms), a release's
+click up to ``DEBOUNCE_S`` late in exchange. The defaults (4096 samples, rendered
+``DEBOUNCE_S`` behind) cost less per step and place every release exactly, but deliver the
+sound up to 113 ms after it happened, later than any real capture."""
 NORMAL_TAU_S = 0.01
 """Averaging time of the normal force the sliding texture feels (longer than MuJoCo's
 flicker of a sliding contact, a step or two; shorter than any stroke of a recipe)."""
@@ -82,7 +89,8 @@ class FingertipSensor:
 
     ``materials`` maps geom names of the scene to material names (``physics.materials``) or
     :class:`Material` objects, the surfaces the nail slides over; other geoms sound like
-    ``default_material``.
+    ``default_material``. ``audio_block`` (samples) and ``audio_lag_s`` (how far behind the
+    physics the piezo renders) set how late the sound arrives: see ``REFLEX_AUDIO``.
     """
 
     def __init__(self, model, data, tip: AttachedFingertip, *, fidelity: str = "strain",
@@ -90,12 +98,16 @@ class FingertipSensor:
                  rate_sps: int = 80, batch: int = 8,
                  materials: dict[str, str | Material] | None = None,
                  default_material: str = "tpu",
-                 audio_block: int = 4096, params: FingertipParams | None = None) -> None:
+                 audio_block: int = 4096, audio_lag_s: float = DEBOUNCE_S,
+                 params: FingertipParams | None = None) -> None:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, not "
                              f"{fidelity!r}")
         if batch < 1:
             raise ValueError(f"batch must be at least 1 conversion, not {batch}")
+        if not 0.0 <= audio_lag_s < 1.0:
+            raise ValueError(f"audio_lag_s must be in [0, 1) s, not {audio_lag_s}")
+        self.audio_lag_s = float(audio_lag_s)
         mj = mujoco()
         self.params = params or load_params()
         self.m, self.d, self.tip, self.fidelity = model, data, tip, fidelity
@@ -198,7 +210,7 @@ class FingertipSensor:
         mat = self._mat[touch.other_geom] if touch.found else None
         self.piezo.push(t, touch.slip_mm_s, self._normal if touch.found else 0.0, mat,
                         touch.nail)
-        self.piezo.render(t - DEBOUNCE_S)
+        self.piezo.render(t - self.audio_lag_s)
 
     def _convert(self) -> None:
         r = self.reader
