@@ -74,6 +74,9 @@ CASES = [
     ("numbers went back", F(3000, 5_000_000, 10.0), F(3, 6_000_000, 11.0), False, 79, True),
     # No frame missing: the next frame came one period later.
     ("nothing missing", F(7, 1_000_000, 3.0), F(8, 1_012_500, 3.0125), False, 0, False),
+    # The very next frame, 0.63 s later by the host's stamps: held up on the way across
+    # the break (a buffer that kept it), not lost, and no restart.
+    ("held up", F(29, 362_500, 10.0), F(30, 375_000, 10.63), False, 0, False),
     # The stamps before the break were late (the host was busy as the stream began, and
     # the map's line fell when on-time frames came): the device's clock ran 0.29 s more
     # than the stamps say. It ran on; counted by its clock and numbers.

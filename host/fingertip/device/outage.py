@@ -91,9 +91,13 @@ def continued(before: FramePoint, after: FramePoint, period_s: float) -> bool:
     between: device time advanced as much as host time did (or up to
     :data:`LATE_STAMPS_S` more, as the host's stamps can be late), and the sequence numbers about
     one per frame period (each frame takes one; a few other messages may take more; a
-    restarted device numbers from 0 again), unless so many passed that they wrapped."""
+    restarted device numbers from 0 again), unless so many passed that they wrapped. The
+    very next frame (number and device time one step on) continues whatever the host's
+    stamps say: it was held up on the way across the break, and nothing was lost."""
     host_s = host_seconds(after) - host_seconds(before)
     dev_s = device_gap_us(before.device_time_us, after.device_time_us) * 1e-6
+    if seq_gap(before.seq, after.seq) == 0 and abs(dev_s - period_s) <= 0.5 * period_s:
+        return True
     tol = CONTINUITY_S + abs(host_s) * CONTINUITY_PPM * 1e-6
     if host_s - dev_s > tol or dev_s - host_s > tol + LATE_STAMPS_S:
         return False

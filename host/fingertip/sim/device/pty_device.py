@@ -89,7 +89,9 @@ class PtyDevice:
             yield
 
     def unplug(self) -> None:
-        """Close the pty: the host sees its port vanish (reads fail, the path is gone)."""
+        """Close the pty: the host sees its port vanish (reads fail, the path is gone). The
+        device runs on meanwhile, and what it sends is lost (``bytes_dropped``), as on an
+        unplugged cable."""
         with self._lock:
             self._close_pty()
 
@@ -98,6 +100,9 @@ class PtyDevice:
         as one does when USB power returns."""
         with self._lock:
             self._close_pty()
+            # What fell due while unplugged went nowhere: it must not wait in the new pty
+            # for the host, who would read frames of the outage as if they had come late.
+            self._write(self.firmware.advance(self._device_us()))
             self._open_pty()
             if reboot:
                 self._boot()
@@ -150,7 +155,10 @@ class PtyDevice:
             self.link.unlink()
 
     def _write(self, data: bytes) -> None:
-        if not data or self._master is None:
+        if not data:
+            return
+        if self._master is None:  # unplugged: the bytes go nowhere
+            self.bytes_dropped += len(data)
             return
         view = memoryview(data)
         while view:
@@ -172,7 +180,9 @@ class PtyDevice:
             with self._lock:
                 master = self._master
                 due = self.firmware.next_due_us
-            if master is None:
+            if master is None:  # unplugged: the device runs on, its output lost
+                with self._lock:
+                    self._write(self.firmware.advance(self._device_us()))
                 time.sleep(0.01)
                 continue
             # Sleep until the device's next conversion (or a byte from the host): a fixed
