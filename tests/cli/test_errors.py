@@ -262,3 +262,34 @@ def test_usable_recordings_pass():
     assert signal_problem((rng.normal(0, 3000, (4410, 2))).astype(np.int16)) is None
     sine = np.sin(np.linspace(0, 200 * np.pi, 8000))  # peaks at full scale, not clipped
     assert signal_problem(sine, 1.0) is None
+
+
+@pytest.mark.parametrize("when", ["put in", "put back"])
+def test_a_signal_as_the_handlers_are_put_in_or_back_is_an_interrupt(monkeypatch, caplog,
+                                                                      when):
+    # Beside busy loops, `record` got its SIGINT just as the last handler went in: Python
+    # ran the handler on the next bytecode, still inside signal.signal, before the command's
+    # own try, and the process ended with a traceback and status 1. Putting them back is
+    # the same window: SIGHUP while SIGINT's old handler goes back, SIGHUP's still ours.
+    from fingertip import cli
+    from fingertip.cli import stopping
+
+    real = signal.signal
+    first, last = stopping.STOP_SIGNALS[0], stopping.STOP_SIGNALS[-1]
+    sent = signal.SIGINT if when == "put in" else last
+    fired = []
+
+    def install(sig, handler):
+        old = real(sig, handler)
+        ours = handler is stopping._on_signal
+        if not fired and ((when == "put in" and ours and sig == last)
+                          or (when == "put back" and not ours and sig == first)):
+            fired.append(sig)
+            signal.raise_signal(sent)   # its handler runs on the next bytecode
+        return old
+
+    before = {s: signal.getsignal(s) for s in stopping.STOP_SIGNALS}
+    monkeypatch.setattr(signal, "signal", install)
+    assert cli.main(["--version"]) == 130
+    assert fired and f"interrupted by {signal.Signals(sent).name}" in caplog.text
+    assert {s: signal.getsignal(s) for s in stopping.STOP_SIGNALS} == before  # all back

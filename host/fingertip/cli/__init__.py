@@ -18,16 +18,22 @@ def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
     """Run ``fingertip`` with ``argv`` (default: the process's arguments); the exit status."""
     from .stopping import configure_logging, failed, interrupted, stop_signals
 
-    with stop_signals():
-        configure_logging()
-        try:
-            from .app import main as run
+    try:
+        with stop_signals():
+            configure_logging()
+            try:
+                from .app import main as run
 
-            return run(argv)
-        except KeyboardInterrupt as e:  # while importing or building the parser
-            return interrupted(e)
-        except Exception as e:  # noqa: BLE001 - e.g. an import the interrupt broke
-            return failed(e)
+                return run(argv)
+            except KeyboardInterrupt as e:  # while importing or building the parser
+                return interrupted(e)
+            except Exception as e:  # noqa: BLE001 - e.g. an import the interrupt broke
+                return failed(e)
+    except KeyboardInterrupt as e:
+        # A signal that came as the handlers were put in or back: Python runs a handler
+        # between bytecodes, so one caught in the last install raises just after it.
+        configure_logging()
+        return interrupted(e)
 
 
 def __getattr__(name: str) -> object:

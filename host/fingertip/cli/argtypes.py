@@ -72,15 +72,19 @@ def dispatch(parser: argparse.ArgumentParser, argv: Sequence[str] | None = None)
     (:func:`~fingertip.cli.stopping.run_command`)."""
     from .stopping import configure_logging, interrupted, run_command, stop_signals
 
-    with stop_signals():
+    try:
+        with stop_signals():
+            configure_logging()
+            try:
+                args = parser.parse_args(argv)
+            except KeyboardInterrupt as e:
+                return interrupted(e)
+            verbose = getattr(args, "verbose", 0) or 0
+            configure_logging(verbose)
+            if not getattr(args, "func", None):
+                parser.print_help()
+                return 2
+            return run_command(args.func, args, verbose)
+    except KeyboardInterrupt as e:  # as the handlers were put in or back (see cli.main)
         configure_logging()
-        try:
-            args = parser.parse_args(argv)
-        except KeyboardInterrupt as e:
-            return interrupted(e)
-        verbose = getattr(args, "verbose", 0) or 0
-        configure_logging(verbose)
-        if not getattr(args, "func", None):
-            parser.print_help()
-            return 2
-        return run_command(args.func, args, verbose)
+        return interrupted(e)

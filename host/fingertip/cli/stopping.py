@@ -54,6 +54,7 @@ class Interrupted(KeyboardInterrupt):
 
 _raised = threading.Event()
 _signame = ["SIGINT"]  # the stop signal that was raised (once _raised is set)
+_putting_back = threading.Event()  # stop_signals is putting the old handlers back
 
 
 def _on_signal(signum: int, _frame: Any) -> None:
@@ -62,7 +63,8 @@ def _on_signal(signum: int, _frame: Any) -> None:
         return
     _signame[0] = signal.Signals(signum).name
     _raised.set()
-    raise Interrupted(_signame[0])
+    if not _putting_back.is_set():  # else raised once every handler is back
+        raise Interrupted(_signame[0])
 
 
 @contextlib.contextmanager
@@ -74,12 +76,25 @@ def stop_signals() -> Iterator[None]:
         yield
         return
     _raised.clear()
-    old = {s: signal.signal(s, _on_signal) for s in STOP_SIGNALS}
+    # Taken before any goes in: a signal may come as they do, and its handler then raises
+    # on the next bytecode, before signal.signal has returned the old one.
+    old = {s: signal.getsignal(s) for s in STOP_SIGNALS}
     try:
+        for s in STOP_SIGNALS:
+            signal.signal(s, _on_signal)
         yield
     finally:
-        for s, h in old.items():
-            signal.signal(s, h if h is not None else signal.SIG_DFL)
+        # A signal while they go back is only noted (raising would leave the rest ours),
+        # and raised once all are back.
+        raised_before = _raised.is_set()
+        _putting_back.set()
+        try:
+            for s, h in old.items():
+                signal.signal(s, h if h is not None else signal.SIG_DFL)
+        finally:
+            _putting_back.clear()
+        if _raised.is_set() and not raised_before:
+            raise Interrupted(_signame[0])
 
 
 def interrupted(e: KeyboardInterrupt, verbose: int = 0) -> int:
