@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import soundfile as sf
 
+from fingertip.record import Recording
 from fingertip.reference.rdt import RECORD
 
 
@@ -136,13 +137,13 @@ def _build(root: Path, model: bool) -> Workspace:
     assert code == 0, "the workspace's recording failed"
     data = p["rec"].read_bytes()
     p["cut_rec"] = root / "cut.mcap"
-    p["cut_rec"].write_bytes(data[: len(data) // 2])
+    cut = _cut_after_a_frame(data, p["cut_rec"])
     p["head_rec"] = root / "head.mcap"
     p["head_rec"].write_bytes(data[:8])
     p["magic_rnd"] = root / "magic-random.mcap"
     p["magic_rnd"].write_bytes(data[:8] + rng.bytes(4000))
     p["part_rec"] = root / ".run.mcap.part"
-    p["part_rec"].write_bytes(data[: len(data) // 2])
+    p["part_rec"].write_bytes(data[:cut])
 
     # Vibration folders: good (sim), silent, clipped, one class, empty classes.
     p["vib"] = root / "vib"
@@ -186,3 +187,15 @@ def _build(root: Path, model: bool) -> Workspace:
         ws.stack.callback(srv.close)
         p[name] = Path(f"127.0.0.1:{srv.port}")
     return ws
+
+
+def _cut_after_a_frame(data: bytes, path: Path) -> int:
+    """Write ``data`` cut short to ``path``: at half its bytes, or later if the first half
+    holds no fingertip frame (a busy machine's recording can begin with audio alone); the
+    commands are then meant to keep what the cut file holds. Returns the length."""
+    step = max(len(data) // 16, 1)
+    for cut in range(len(data) // 2, len(data) - 1, step):
+        path.write_bytes(data[:cut])
+        if next(Recording(path).records(kinds=["raw"]), None) is not None:
+            return cut
+    raise AssertionError("the workspace's recording holds no fingertip frame before its end")

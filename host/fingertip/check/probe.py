@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..device import Fingertip, FingertipError, Frame
+from ..device.outage import host_seconds
 from ..protocol import message_to_dict
 from .signals import Segment
 
@@ -64,17 +65,16 @@ class DeviceProbe:
                 ) -> Segment:
         """Frames covering ``seconds`` of device time from now, or, with ``since`` (a
         ``time.monotonic()`` value, e.g. when a person or the simulator was asked to act),
-        from the first frame that arrived at or after it: frames already queued count, so a
-        host that comes late to read loses none of the action (what arrived late but was
-        made before the frames that came before ``since`` does not count)."""
+        from the first frame made at or after it (its clock-mapped host time): frames
+        already queued count, so a host that comes late to read loses none of the action,
+        and frames made before it do not, however late the host read them (a busy host's
+        reader can hand over a second of frames at once)."""
         queued = self.ft.drain()
-        kept: list[Frame] = []
         if since is not None:
-            before = [f.device_time_us for f in queued if f.arrival_time < since]
-            kept = [f for f in queued if f.arrival_time >= since
-                    and (not before or f.device_time_us > before[-1])]
-        pending = iter(kept)
-        rows, t_first = [], None
+            queued = [f for f in queued if host_seconds(f) >= since]
+        pending = iter(queued if since is not None else ())
+        rows: list[Frame] = []
+        t_first = None
         deadline = time.monotonic() + seconds * 4 + timeout
         while time.monotonic() < deadline:
             f = next(pending, None)
@@ -83,6 +83,8 @@ class DeviceProbe:
             if f is None:
                 if rows and time.monotonic() > deadline - timeout:
                     break
+                continue
+            if since is not None and not rows and host_seconds(f) < since:
                 continue
             t = f.device_time_us * 1e-6
             t_first = t if t_first is None else t_first
