@@ -1,6 +1,8 @@
 """Vibration features: any rate, any gain, silence, clipping, NaN/Inf, float32 vs float64."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import soundfile as sf
@@ -233,6 +235,11 @@ def test_read_wav_flac_and_csv(tmp_path):
     (tmp_path / "g.csv").write_text("# fs=2000\n1\nabc\n")
     with pytest.raises(FeatureError, match="not a CSV of numbers"):
         read_recording(tmp_path / "g.csv")
+    (tmp_path / "header.csv").write_text("# rate=4000\ntime_s,piezo_v\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's "input contained no data" is not the answer
+        with pytest.raises(FeatureError, match="no samples.*time_s"):
+            read_recording(tmp_path / "header.csv")
     (tmp_path / "h.wav").write_bytes(b"RIFF nonsense")
     with pytest.raises(FeatureError, match="not a readable"):
         read_recording(tmp_path / "h.wav")

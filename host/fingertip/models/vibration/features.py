@@ -316,6 +316,9 @@ def _read_csv(path: Path, rate: float | None) -> Recording:
         m = _RATE_RE.search(",".join(first))
         if m and stated is None:
             stated = float(m.group(1))
+    if header is not None and len(body) == 1:
+        raise FeatureError(f"{path}: no samples (only a line of text: "
+                           f"{', '.join(first)[:60]!r})")
     col, tcol = 0, None
     if header is not None and len(header) >= 2:
         tcols = [i for i, h in enumerate(header) if h in _TIME_NAMES]
