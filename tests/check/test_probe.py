@@ -7,6 +7,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from fingertip.check.probe import DeviceProbe
 from fingertip.device import Frame
@@ -92,3 +93,26 @@ def test_frames_with_no_clock_map_yet_use_their_arrival():
     probe = DeviceProbe(ScriptedDevice(made[:100], made[100:]))
     seg = probe.capture(0.25, timeout=0.1, since=SINCE)
     assert seg.times_s[0] == made[80].device_time_us * 1e-6
+
+
+def test_a_capture_from_a_device_time_takes_what_a_lagging_simulator_made_after_it():
+    # A simulator 0.375 s behind its pace: asked at host time SINCE + 0.375 s, when its own
+    # clock read frame 100's stamp, it steps the load at frame 110. Each frame's mapped host
+    # time is where it would have been made on pace, so frames 100-129 map before the
+    # request: by host time the capture begins at frame 130 and misses the step.
+    stream = frames(0, 160, SINCE + 0.5, jump_at=110)
+    asked_host, asked_device = SINCE + 0.375, stream[100].device_time_us * 1e-6
+    seg = DeviceProbe(ScriptedDevice(stream[:120], stream[120:])).capture(
+        0.25, timeout=0.1, since=asked_host)
+    assert seg.times_s[0] == stream[130].device_time_us * 1e-6
+    assert np.all(seg.counts[:, 0] == 10000)  # no step in it
+    seg = DeviceProbe(ScriptedDevice(stream[:120], stream[120:])).capture(
+        0.25, timeout=0.1, since_device_s=asked_device)
+    assert seg.times_s[0] == asked_device
+    assert seg.counts[9, 0] == 0 and seg.counts[10, 0] == 10000
+
+
+def test_one_start_only():
+    probe = DeviceProbe(ScriptedDevice([], []))
+    with pytest.raises(ValueError, match="not both"):
+        probe.capture(0.1, since=SINCE, since_device_s=1.0)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -83,6 +84,48 @@ def test_a_host_late_to_read_still_sees_the_presses_and_taps():
     with PtyDevice(unit.firmware, speed=SPEED) as dev, \
             Fingertip(dev.port, command_timeout=2.0) as ft:
         rep = run_check(DeviceProbe(ft), LateHostGuide(unit), SimAudio(unit))
+    assert not rep.failures, rep.table()
+    assert rep.mapping is not None and not rep.skipped_steps
+
+
+class LaggingProbe(DeviceProbe):
+    """After each guided step's capture the simulated device stops for 2 s of device time
+    (0.5 s) while the check goes on, as a starved simulator does on a busy host: it is
+    1.6 s behind its pace when the next step is asked, and catches up 0.4 s later."""
+
+    def __init__(self, ft: Fingertip, dev: PtyDevice) -> None:
+        super().__init__(ft)
+        self.dev = dev
+        self.lags = 0
+
+    def capture(self, seconds: float, **kw):
+        seg = super().capture(seconds, **kw)
+        if kw.get("since") is not None or kw.get("since_device_s") is not None:
+            held = threading.Event()
+
+            def hold() -> None:
+                with self.dev.held():
+                    held.set()
+                    time.sleep(2.0 / SPEED)
+
+            threading.Thread(target=hold, daemon=True).start()
+            held.wait()
+            time.sleep(1.6 / SPEED)  # the check's own work meanwhile
+            self.lags += 1
+        return seg
+
+
+def test_a_device_behind_its_pace_still_shows_the_presses_and_taps():
+    # Beside busy loops clean units failed "press -X: no response" while the capture went
+    # by the frames' clock-mapped host times: a lagging simulator makes the press after it
+    # was asked, but stamps it on its own late clock, which maps to before the request. The
+    # simulator's own clock says where the step begins.
+    unit = VirtualUnit(1012)
+    with PtyDevice(unit.firmware, speed=SPEED) as dev, \
+            Fingertip(dev.port, command_timeout=2.0) as ft:
+        probe = LaggingProbe(ft, dev)
+        rep = run_check(probe, SimGuide(unit), SimAudio(unit))
+    assert probe.lags == 5
     assert not rep.failures, rep.table()
     assert rep.mapping is not None and not rep.skipped_steps
 

@@ -12,6 +12,12 @@ from typing import Protocol
 
 
 class Guide(Protocol):
+    """A simulated guide may also have ``acted_at_s``: the device time (seconds, the clock
+    of the frames' stamps) at which its last step was asked. The check then records the
+    step from the first frame stamped at or after it. Without it, the step is recorded from
+    the first frame made (by its clock-mapped host time) after the step was asked or, for a
+    person, after the prompt returned."""
+
     interactive: bool
     simulated: bool
 

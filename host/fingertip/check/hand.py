@@ -31,6 +31,10 @@ class FingerGuide:
         self.interactive = guide.interactive
         self.simulated = guide.simulated
 
+    @property
+    def acted_at_s(self) -> float | None:
+        return getattr(self.guide, "acted_at_s", None)
+
     def press(self, face: int, label: str) -> bool:
         return self.guide.press(face, f"{self.finger} fingertip's {label}")
 

@@ -61,18 +61,26 @@ class DeviceProbe:
     def set_rate(self, rate_sps: int) -> None:
         self.ft.set_rate(rate_sps, 1)
 
-    def capture(self, seconds: float, timeout: float = 3.0, since: float | None = None
-                ) -> Segment:
-        """Frames covering ``seconds`` of device time from now, or, with ``since`` (a
-        ``time.monotonic()`` value, e.g. when a person or the simulator was asked to act),
-        from the first frame made at or after it (its clock-mapped host time): frames
-        already queued count, so a host that comes late to read loses none of the action,
-        and frames made before it do not, however late the host read them (a busy host's
-        reader can hand over a second of frames at once)."""
+    def capture(self, seconds: float, timeout: float = 3.0, since: float | None = None,
+                since_device_s: float | None = None) -> Segment:
+        """Frames covering ``seconds`` of device time from now, or from the first frame made
+        at or after ``since`` (a ``time.monotonic()`` value, e.g. when a person was asked to
+        act; a frame's clock-mapped host time says when it was made), or stamped at or after
+        ``since_device_s`` (device seconds: when a simulator was asked to act, by its own
+        clock). Frames already queued count, so a host that comes late to read loses none of
+        the action; frames made before it do not, however late the host read them (a busy
+        host's reader can hand over a second of frames at once)."""
+        if since is not None and since_device_s is not None:
+            raise ValueError("give since or since_device_s, not both")
+
+        def before(f: Frame) -> bool:
+            if since_device_s is not None:
+                return f.device_time_us * 1e-6 < since_device_s
+            return since is not None and host_seconds(f) < since
+
         queued = self.ft.drain()
-        if since is not None:
-            queued = [f for f in queued if host_seconds(f) >= since]
-        pending = iter(queued if since is not None else ())
+        keep = since is not None or since_device_s is not None
+        pending = iter([f for f in queued if not before(f)] if keep else ())
         rows: list[Frame] = []
         t_first = None
         deadline = time.monotonic() + seconds * 4 + timeout
@@ -84,7 +92,7 @@ class DeviceProbe:
                 if rows and time.monotonic() > deadline - timeout:
                     break
                 continue
-            if since is not None and not rows and host_seconds(f) < since:
+            if not rows and before(f):
                 continue
             t = f.device_time_us * 1e-6
             t_first = t if t_first is None else t_first

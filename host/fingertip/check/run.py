@@ -109,12 +109,17 @@ def _run(probe, guide: Guide, audio, rep: Report, say) -> None:
                    data=counters))
 
 
-def _acting_from(guide: Guide, called: float) -> float:
-    """When the guide's action may begin (``time.monotonic()``): a person acts after the
-    prompt returns ("GO"); a simulated guide schedules its action as it is called. The
-    capture keeps every frame that arrived from then on, queued ones included, so a host
-    late to read (a busy machine) loses none of the action."""
-    return time.monotonic() if guide.interactive else called
+def _acting_from(guide: Guide, called: float) -> dict[str, float]:
+    """From when the guide's action may begin, as :meth:`~.probe.DeviceProbe.capture`'s
+    ``since`` (``time.monotonic()``: a person acts after the prompt returns, "GO") or, for a
+    simulated guide that knows it, ``since_device_s``: the device's own time when the step
+    was asked. A simulated device can lag its pace on a busy host, and a busy host's reader
+    can hand over frames late: the device's clock says which frames came after the request
+    in both cases. The capture keeps every frame from then on, queued ones included."""
+    device_s = getattr(guide, "acted_at_s", None)
+    if device_s is not None:
+        return {"since_device_s": float(device_s)}
+    return {"since": time.monotonic() if guide.interactive else called}
 
 
 def _presses(probe, guide: Guide, rep: Report, noise, bad, say) -> None:
@@ -124,9 +129,9 @@ def _presses(probe, guide: Guide, rep: Report, noise, bad, say) -> None:
         if not guide.press(face, label):
             rep.skipped_steps.append(f"press {label} (polarity, mapping, sensitivity)")
             continue
-        asked = _acting_from(guide, asked)
+        start = _acting_from(guide, asked)
         say(f"press {label} ...")
-        seg = probe.capture(PRESS_S[guide.interactive], since=asked)
+        seg = probe.capture(PRESS_S[guide.interactive], **start)
         responses[face] = S.press_response(seg, noise, bad)
     rep.recorded["responses"] = responses
     if not responses:
@@ -148,9 +153,9 @@ def _taps(probe, guide: Guide, audio, rep: Report, noise, bad, say) -> None:
         rep.skipped_steps.append("tap the nail (piezo level, clipping, delay)")
         rep.add(Result("piezo", SKIP, "taps skipped", ""))
         return
-    asked = _acting_from(guide, asked)
+    start = _acting_from(guide, asked)
     say("tapping ...")
-    seg = probe.capture(TAP_S[guide.interactive], since=asked)
+    seg = probe.capture(TAP_S[guide.interactive], **start)
     x, t0 = audio.stop(probe.last_time_s)
     taps = force_tap_times(seg, noise, bad)
     rep.add(check_piezo(x, audio.sample_rate, t0, taps, TAPS, audio.name))

@@ -136,15 +136,19 @@ class SimGuide:
     def __init__(self, unit: VirtualUnit, lead_s: float = 0.25) -> None:
         self.unit = unit
         self.lead_s = lead_s
+        self.acted_at_s: float | None = None
+        """Device time when the last step was asked (the check records from there)."""
 
     def press(self, face: int, label: str) -> bool:
+        self.acted_at_s = now = self.unit.now_s
         # Pressing the face whose outward normal is at face*90 deg pushes towards its
         # opposite: the force on the fingertip points at face*90 + 180 deg.
-        self.unit.scene.press(self.unit.now_s + self.lead_s, face * 90.0 + 180.0)
+        self.unit.scene.press(now + self.lead_s, face * 90.0 + 180.0)
         return True
 
     def tap(self, count: int) -> bool:
-        t = self.unit.now_s + self.lead_s
+        self.acted_at_s = now = self.unit.now_s
+        t = now + self.lead_s
         self.unit.scene.tap([t + 0.35 * k for k in range(count)])
         return True
 

@@ -61,6 +61,9 @@ class FirmwareSim:
                  throttle: float | None = None, noise: float = 0.0, seed: int = 1,
                  link: str | Path | None = None, extra_args: Sequence[str] = ()) -> None:
         self.channels = channels
+        self.boot_us = 0.0
+        """Simulated time of the last reset: the firmware's clock (its frames' stamps) reads
+        the simulated time since then."""
         self.elf = Path(elf) if elf else firmware_elf(channels)
         args = [str(harness_binary()), "-n", str(channels), "--seed", str(seed)]
         if throttle is not None:
@@ -221,6 +224,7 @@ class FirmwareSim:
     def reset(self) -> None:
         """A reset of the MCU (as the reset button or a DTR pulse does)."""
         self.command("reset")
+        self.boot_us = self.time_us()
 
     def throttle(self, factor: float | None) -> None:
         self.command(f"throttle {'off' if factor is None else factor}")

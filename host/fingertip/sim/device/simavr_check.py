@@ -34,9 +34,13 @@ class SimavrGuide:
         self.sim = sim
         self.rest = np.asarray(rest, float)
         self.lead_s = lead_s
+        self.acted_at_s: float | None = None
+        """The firmware's time when the last step was asked (the check records from there)."""
 
     def press(self, face: int, label: str) -> bool:
-        t0 = self.sim.time_us() + self.lead_s * 1e6
+        now = self.sim.time_us()
+        self.acted_at_s = (now - self.sim.boot_us) * 1e-6
+        t0 = now + self.lead_s * 1e6
         d = press_pattern(face)
         knots = [(0.0, 0.0), (0.25, 1.0), (1.05, 1.0), (1.3, 0.0)]
         times = np.arange(0.0, 1.3 + 1e-9, 0.01)
