@@ -6,7 +6,7 @@ import numpy as np
 
 from fingertip import Fingertip
 
-from .waiting import wait_for
+from .waiting import PATIENCE, wait_for
 
 
 def test_open_info_tare_stream(device):
@@ -50,6 +50,6 @@ def test_callbacks_and_overrun_counting(device):
         ft.add_callback(got.append)
         ft.add_callback(lambda f: 1 / 0)  # a broken callback is counted, not fatal
         ft.start()
-        assert wait_for(lambda: len(got) >= 20, 2.0)
+        assert wait_for(lambda: len(got) >= 20, PATIENCE)
         assert ft.stats.overruns >= 10 and ft.stats.callback_errors >= 20
         assert len(ft.drain()) == 5

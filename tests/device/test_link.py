@@ -19,7 +19,7 @@ from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import TransportError, open_serial
 
-from .waiting import wait_for
+from .waiting import PATIENCE, wait_for
 
 
 class SlowWriteStream:
@@ -91,7 +91,7 @@ def test_the_port_is_not_closed_in_the_middle_of_a_write(tmp_path):
         dev.unplug()  # the reader sees the loss while the ping is still being written
         t.join(5)
         assert not t.is_alive()
-        assert wait_for(lambda: ft.status == "reconnecting", 5)
+        assert wait_for(lambda: ft.status == "reconnecting", PATIENCE)
         assert not errors, errors
         assert not streams[0].closed_mid_write
     finally:

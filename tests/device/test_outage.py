@@ -17,7 +17,7 @@ from fingertip.device.outage import (
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 
-from .waiting import wait_for
+from .waiting import PATIENCE, wait_for
 
 P = 0.0125  # 80 Hz
 P_US = 12_500
@@ -181,12 +181,12 @@ def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: b
     assert ft.read(timeout=1.0) is not None
     time.sleep(0.3)
     dev.unplug()
-    assert wait_for(lambda: ft.status == "reconnecting", 2.0)
+    assert wait_for(lambda: ft.status == "reconnecting", PATIENCE)
     assert ft.gone_s is not None and ft.gone_s >= 0
     time.sleep(away_s)
     assert ft.gone_s >= away_s  # how long it has been gone, while it is
     dev.replug(reboot=reboot)
-    assert wait_for(lambda: ft.stats.outage_frames > 0, 5.0)
+    assert wait_for(lambda: ft.stats.outage_frames > 0, PATIENCE)
     # Found by the device's clock, not the host's: a busy host can hold two consecutive
     # frames apart for longer than the outage. The counter moves as the first frame after
     # the break is handed out, a moment before it is queued: drain until it is there.
@@ -201,7 +201,7 @@ def frames_around_outage(dev: PtyDevice, ft: Fingertip, away_s: float, reboot: b
         k = max(range(len(steps)), key=steps.__getitem__, default=None)  # the one long step
         return k if k is not None and steps[k] > away_s * 1e6 else None
 
-    assert wait_for(lambda: across() is not None, 5.0)
+    assert wait_for(lambda: across() is not None, PATIENCE)
     k = across()
     assert ft.gone_s is None
     return frames[k], frames[k + 1]

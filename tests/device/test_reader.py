@@ -14,12 +14,8 @@ from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 from fingertip.transport import TransportError
 
-from .waiting import wait_for
+from .waiting import PATIENCE, wait_for
 
-PATIENCE = 20.0
-"""How long a wait may take on a busy host (a test worker beside busy loops got under a
-fifth of a core: b delivered fewer than 10 frames in 2 s); each wait ends as soon as its
-condition holds, and a thread that is really stuck still fails it."""
 
 
 def _fw(k: int) -> VirtualFirmware:

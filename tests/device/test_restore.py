@@ -14,7 +14,7 @@ from fingertip.protocol import Start, encode
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
 
-from .waiting import wait_for
+from .waiting import PATIENCE, wait_for
 
 
 def test_a_foreign_device_on_the_path_is_refused(tmp_path):
@@ -25,20 +25,20 @@ def test_a_foreign_device_on_the_path_is_refused(tmp_path):
     ft.add_callback(got.append)
     try:
         ft.start()
-        assert wait_for(lambda: len(got) >= 5, 5)
+        assert wait_for(lambda: len(got) >= 5, PATIENCE)
         first.stop()  # unplugged; something else takes the path
         with PtyDevice(VirtualFirmware(16), link=link):
             # It streams without being asked by this host: someone else started it.
             with open(link, "wb", buffering=0) as port:
                 port.write(encode(Start(1)))
-            assert wait_for(lambda: ft.stats.foreign_devices >= 1, 10)
+            assert wait_for(lambda: ft.stats.foreign_devices >= 1, PATIENCE)
             n = len(got)
             time.sleep(0.5)
             assert all(len(f.counts) == 4 for f in got)  # not one 16-channel frame
             assert len(got) == n, [(len(f.counts), f.seq, f.device_time_us) for f in got[n - 3:]]
         back = PtyDevice(VirtualFirmware(4), link=link).start()  # the right one returns
         try:
-            assert wait_for(lambda: len(got) >= n + 10, 10), ft.stats
+            assert wait_for(lambda: len(got) >= n + 10, PATIENCE), ft.stats
             assert all(len(f.counts) == 4 for f in got)
             assert ft.status == "connected"
         finally:
@@ -54,7 +54,7 @@ def test_the_same_device_comes_back_with_its_frames(tmp_path):
         ft.start()
         assert ft.read(timeout=2) is not None
         dev.replug(reboot=False)  # a glitch: the same device keeps streaming
-        assert wait_for(lambda: ft.stats.reconnects >= 1, 5)
+        assert wait_for(lambda: ft.stats.reconnects >= 1, PATIENCE)
         ft.drain()
         assert ft.read(timeout=3) is not None
         assert ft.stats.foreign_devices == 0
@@ -90,8 +90,8 @@ def test_device_reset_mid_stream_is_counted_and_repaired(device):
         ft.start()
         assert ft.read(timeout=1.0) is not None
         device.reset()
-        assert wait_for(lambda: ft.stats.device_resets == 1, 2.0)
-        assert wait_for(lambda: device.firmware.streaming, 2.0)
+        assert wait_for(lambda: ft.stats.device_resets == 1, PATIENCE)
+        assert wait_for(lambda: device.firmware.streaming, PATIENCE)
         ft.drain()
         assert ft.read(timeout=1.0) is not None
         assert ft.stats.reconnects == 0

@@ -13,7 +13,7 @@ from fingertip.hand_args import HandSpec, parse_split
 from fingertip.network.hand import open_fingers
 from fingertip.sim import VirtualFirmware
 from fingertip.sim.device.pty_device import PtyDevice
-from tests.device.waiting import wait_for
+from tests.device.waiting import PATIENCE, wait_for
 
 FINGERS = ("index", "middle", "ring")
 
@@ -29,7 +29,7 @@ def _stream(views, n: int) -> dict[str, list]:
         v.add_callback(got[v.name].append)
     for v in views:
         v.start()
-    assert wait_for(lambda: all(len(g) >= n for g in got.values()), 5.0)
+    assert wait_for(lambda: all(len(g) >= n for g in got.values()), PATIENCE)
     return got
 
 
@@ -53,7 +53,7 @@ def test_a_hand_of_devices_is_read_on_one_thread_without_queues(tmp_path):
             with pytest.raises(FingertipError, match="queue_size=0"):
                 views[0].hand.read(0.1)  # ... and neither does the hand
             assert views[0].hand.overruns == 0
-        assert wait_for(lambda: not _reader_threads(), 2.0)  # ends with the hand
+        assert wait_for(lambda: not _reader_threads(), PATIENCE)  # ends with the hand
     finally:
         for d in devs:
             d.stop()
@@ -95,7 +95,7 @@ def test_a_recorded_hand_is_read_on_one_thread_without_queues(tmp_path):
         assert "devices: lost 0, CRC errors 0, reconnects 0" in res.text()
         assert all(c["raw"] >= 40 for c in res.per_finger.values()), res.per_finger
         assert Recording(out).devices() == sorted(FINGERS)
-        assert wait_for(lambda: not _reader_threads(), 2.0)
+        assert wait_for(lambda: not _reader_threads(), PATIENCE)
     finally:
         for d in devs:
             d.stop()
