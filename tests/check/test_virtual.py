@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
@@ -17,6 +16,8 @@ from fingertip.device import Fingertip
 from fingertip.sim.device.bringup import SimAudio, SimGuide, VirtualUnit
 from fingertip.sim.device.faults import FAULTS, parse_fault, parse_faults
 from fingertip.sim.device.pty_device import PtyDevice
+
+from .lagging import LaggingProbe
 
 SPEED = 4.0
 """Device seconds per wall second: the check's 15 s in about 4 s (faster starves the
@@ -88,33 +89,6 @@ def test_a_host_late_to_read_still_sees_the_presses_and_taps():
     assert rep.mapping is not None and not rep.skipped_steps
 
 
-class LaggingProbe(DeviceProbe):
-    """After each guided step's capture the simulated device stops for 2 s of device time
-    (0.5 s) while the check goes on, as a starved simulator does on a busy host: it is
-    1.6 s behind its pace when the next step is asked, and catches up 0.4 s later."""
-
-    def __init__(self, ft: Fingertip, dev: PtyDevice) -> None:
-        super().__init__(ft)
-        self.dev = dev
-        self.lags = 0
-
-    def capture(self, seconds: float, **kw):
-        seg = super().capture(seconds, **kw)
-        if kw.get("since") is not None or kw.get("since_device_s") is not None:
-            held = threading.Event()
-
-            def hold() -> None:
-                with self.dev.held():
-                    held.set()
-                    time.sleep(2.0 / SPEED)
-
-            threading.Thread(target=hold, daemon=True).start()
-            held.wait()
-            time.sleep(1.6 / SPEED)  # the check's own work meanwhile
-            self.lags += 1
-        return seg
-
-
 def test_a_device_behind_its_pace_still_shows_the_presses_and_taps():
     # Beside busy loops clean units failed "press -X: no response" while the capture went
     # by the frames' clock-mapped host times: a lagging simulator makes the press after it
@@ -123,7 +97,7 @@ def test_a_device_behind_its_pace_still_shows_the_presses_and_taps():
     unit = VirtualUnit(1012)
     with PtyDevice(unit.firmware, speed=SPEED) as dev, \
             Fingertip(dev.port, command_timeout=2.0) as ft:
-        probe = LaggingProbe(ft, dev)
+        probe = LaggingProbe(ft, dev.held, 2.0 / SPEED, 1.6 / SPEED)
         rep = run_check(probe, SimGuide(unit), SimAudio(unit))
     assert probe.lags == 5
     assert not rep.failures, rep.table()
