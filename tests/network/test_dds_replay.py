@@ -52,5 +52,9 @@ def test_replay_with_sim_time_publishes_the_recording_and_clock(tmp_path):
     data_b = b"".join(S.decode_audio(d).data for _, d in b[au])
     assert data_b == data_a and a[au][0][0] == b[au][0][0]
     raw_stamps = [S.decode_raw(d).stamp_ns for _, d in a[S.topic("index", "raw")]]
-    assert len(clock) >= len(raw_stamps) - 5 and clock == sorted(clock)
-    assert set(clock) <= set(raw_stamps) and clock[-1] == raw_stamps[-1]
+    # A tick per frame from when this reader matched the /clock writer (best effort: a few
+    # may drop); on a busy host discovery can take the replay's first ticks.
+    assert clock == sorted(clock) and set(clock) <= set(raw_stamps)
+    assert clock[-1] == raw_stamps[-1]
+    since_matched = [t for t in raw_stamps if t >= clock[0]]
+    assert len(clock) >= len(since_matched) - 5 and len(since_matched) >= len(raw_stamps) // 2

@@ -237,7 +237,10 @@ class DdsNode:
         from cyclonedds.util import duration
 
         while not self._stop.is_set():
-            self._waitset.wait(duration(milliseconds=100))
+            waitset = self._waitset
+            if waitset is None:  # closed while this thread was late to stop
+                return
+            waitset.wait(duration(milliseconds=100))
             with self._lock:
                 items = list(self._readers.items())
             for r, fn in items:
@@ -325,10 +328,20 @@ class DdsNode:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=2)
-        # Deleting the participant deletes every entity it owns.
-        self.participant = None
+        # Deleting the participant deletes every entity it owns, once nothing refers to it:
+        # drop every entity (each holds the participant) and the domain (its settings). A
+        # closed node that is still referenced (a caller's variable, a traceback) otherwise
+        # keeps them, and the next node on the domain with other settings cannot start.
+        with self._lock:
+            self._readers.clear()
         self._writers.clear()
-        self._readers.clear()
+        self._reader_entities.clear()
+        self._conds.clear()
+        self._topics.clear()
+        self._graph = None
+        self._waitset = None
+        self.participant = None
+        self._domain = None
 
 
 class DdsTransport:
@@ -375,14 +388,20 @@ class DdsTransport:
             time.sleep(0.05)
         return False
 
-    def publish_clock(self, ns: int) -> None:
-        """``/clock`` (rosgraph_msgs/msg/Clock, rclcpp's clock QoS: best effort, keep last
-        1), for subscribers that run with ``use_sim_time``."""
+    def declare_clock(self) -> None:
+        """The ``/clock`` writer, before the first tick: subscribers find it while the
+        publisher waits for them, and do not miss the replay's first ticks."""
         from .ros_types import CLOCK
 
         if self._clock is None:
             self._clock = self.node.writer("rt/clock", CLOCK, SENSOR)
             self.node.announce()
+
+    def publish_clock(self, ns: int) -> None:
+        """``/clock`` (rosgraph_msgs/msg/Clock, rclcpp's clock QoS: best effort, keep last
+        1), for subscribers that run with ``use_sim_time``."""
+        self.declare_clock()
+        assert self._clock is not None
         sec, nsec = divmod(int(ns), 1_000_000_000)
         self._clock(b"\x00\x01\x00\x00" + struct.pack("<iI", sec, nsec))
 
@@ -405,6 +424,8 @@ class DdsTransport:
         self._diagnostics(data)
 
     def close(self) -> None:
+        self._writers.clear()
+        self._clock = self._diagnostics = None
         self.node.close()
 
 

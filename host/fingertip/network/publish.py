@@ -76,6 +76,8 @@ def _run(feed: Feed, transport: Any, sources: Sequence[Any], names: Sequence[str
     if audio is not None and hasattr(transport, "declare_audio"):
         transport.declare_audio(names[0], audio.sample_rate, audio.channels,
                                 AUDIO_ENCODINGS[audio.dtype.name])
+    if s.replay and s.sim_time and hasattr(transport, "declare_clock"):
+        transport.declare_clock()
     _wait_subscribers(s, transport)
     for src, name in zip(sources, names, strict=True):
         feed.attach(src, name, force_model)
