@@ -18,8 +18,8 @@ from .conftest import start, wait_line
 def test_the_node_and_its_endpoints_are_announced():
     # Until stopped: a publisher that ended on its own before a busy machine discovered it
     # would take its announcement with it.
-    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "120")
     node = DdsNode()
+    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "120")
     infos: list[bytes] = []
     try:
         wait_line(pub, "publishing")

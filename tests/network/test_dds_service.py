@@ -45,8 +45,8 @@ class Client:
 
 
 def test_tare_service_answers_and_refuses_bad_requests():
-    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "8")
     node = DdsNode()
+    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "8")
     try:
         events: queue.Queue = queue.Queue()
         subscribe(node, ["index"], lambda n, k, d: events.put(S.decode_event(d)),
@@ -88,9 +88,9 @@ def test_tare_service_answers_and_refuses_bad_requests():
 
 
 def test_read_only_serves_no_tare():
+    node = DdsNode()
     pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "4",
                 "--read-only")
-    node = DdsNode()
     try:
         seen = []
         subscribe(node, ["index"], lambda n, k, d: seen.append(k), kinds=("raw",))
@@ -136,8 +136,8 @@ def test_publisher_outlives_a_killed_subscriber(tmp_path):
 def test_a_burst_of_200_tare_requests_is_answered_or_counted():
     """Every request is answered (one tare, the rest busy) or counted as dropped; with ROS's
     keep-last 10 on the service's side, 16 of 200 reached it and 13 replies came back."""
-    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "8")
     node = DdsNode()
+    pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "8")
     try:
         replies: queue.Queue = queue.Queue()
         # The client keeps every reply (a keep-last reader would overwrite its own).

@@ -172,8 +172,8 @@ def test_dds_diagnostics_follow_a_device_that_loses_a_chip_goes_away_and_comes_b
 
     link = tmp_path / "ft"
     dev = sim_device(link, "missing-chip:1")
-    pub = start("publish", "--port", str(link), "--name", "index", "--duration", "40")
     node = DdsNode()
+    pub = start("publish", "--port", str(link), "--name", "index", "--duration", "40")
     try:
         q: queue.Queue = queue.Queue()
         node.reader("rt/diagnostics", DIAGNOSTIC_ARRAY, RELIABLE, q.put, depth=0)
