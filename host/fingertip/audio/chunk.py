@@ -15,7 +15,9 @@ class Chunk:
     Frame ``first_index + i`` is ``samples[i]``; indices count from the source's start and
     never wrap. ``host_time`` is the ``time.monotonic()`` second at which ``samples[0]`` was
     digitised, ``host_rate`` the frames per host second at that moment (the nominal
-    ``sample_rate`` corrected for the sound card's clock drift when it is measured).
+    ``sample_rate`` corrected for the sound card's clock drift when it is measured; up to
+    0.5 % above that while a live source's stamps catch up with a clock fit that moved back,
+    so that ``host_time`` never goes back from one chunk to the next).
     """
 
     samples: np.ndarray

@@ -38,8 +38,8 @@ log = logging.getLogger(__name__)
 TIMESTAMP_MODES = ("auto", "adc", "frames")
 SLEW = 5e-3
 """How fast chunk times may catch up with a clock fit that moved back (seconds per second):
-5 ms per second of audio; a chunk may start at most 0.5 % of its block early (half a sample
-for 95-frame blocks, two samples for 441-frame blocks)."""
+5 ms per second of audio. A catching-up block is stamped with a host rate up to 0.5 % above
+the fit's (its ``host_rate``), never with a start before the previous block's end."""
 WARMUP_S = 4.0
 WARMUP_SLEW = 0.25
 """In a stream's first ``WARMUP_S`` seconds of audio, chunk times catch up at up to 25 %.
@@ -260,11 +260,15 @@ class SoundDeviceSource(RingSource):
         t = clock.to_host(k0)
         rate = clock.rate
         if t < self._t_min:
-            # A refit (or a switch of clock) moved the line back: stay monotonic, and slew
-            # towards the fit by at most SLEW (0.5 %) of the block's duration (WARMUP_SLEW
-            # while the stream is young).
+            # A refit (or a switch of clock) moved the line back. The block starts where the
+            # last one ended, so no frame is stamped before one digitised earlier, and its
+            # frames come closer together, so that it ends at most SLEW (0.5 %) of its
+            # duration early (WARMUP_SLEW while the stream is young): the stamps reach the
+            # fit without ever going back, whichever frame a chunk starts at.
             slew = WARMUP_SLEW if k0 < WARMUP_S * self.sample_rate else SLEW
-            t = max(t, self._t_min - slew * n / rate)
+            end = max(clock.to_host(k0 + n), self._t_min + (1.0 - slew) * n / rate)
+            t = self._t_min
+            rate = n / (end - t)
         self._t_min = t + n / rate
         self._rate = rate
         return t
