@@ -11,8 +11,8 @@ sample rate. Each audio callback tells us that by its arrival time the block's l
 been captured, plus a delay that is never negative and usually near its minimum (server and
 driver buffering, scheduling). So ``t(k)`` is fitted to the *lower envelope* of (frame index,
 arrival) points over a sliding window: the earliest arrival of each short bin; the rate is
-the slope of their lower convex hull where it passes the middle of the window, the line
-touches the hull. Bursty callbacks (PulseAudio) and a backlog delivered late after a stall
+the slope of their lower convex hull where it passes the middle of the window's on-time bins,
+the line touches the hull. Bursty callbacks (PulseAudio) and a backlog delivered late after a stall
 then do not bias the times; only the minimum delay stays in them, a constant for the whole
 stream. A device's frames are the same case: each arrives its transport delay after its
 device time (index = microseconds, ``nominal_rate=1e6``).
@@ -27,6 +27,11 @@ from collections import deque
 from itertools import pairwise
 
 
+LATE_S = 0.05
+"""A bin whose earliest point lies this far above the fitted line came late (a backlog): it
+still bounds the line from below, but it does not choose where the rate is read."""
+
+
 class FrameClock:
     """Sliding-window lower-envelope estimate of ``host_time(index)``.
 
@@ -36,9 +41,9 @@ class FrameClock:
     rate is taken as nominal. ``step_s``: when every point of the last ``step_bins`` bins
     arrives more than this later than the fit, for at least half as long in host time, the
     stream has jumped (frames lost upstream without a flag, a suspended machine): history is
-    dropped and ``steps`` counted. The fit is redone when a point falls under the line, at least
-    every ``refit_every`` points, and at each completed bin of the first few (cheap enough
-    for a callback).
+    dropped and ``steps`` counted (``math.inf``: never). The fit is redone when a point falls
+    under the line, at least every ``refit_every`` points, and at each completed bin of the
+    first few (cheap enough for a callback).
     """
 
     def __init__(self, nominal_rate: float, *, window_s: float = 20.0, bin_s: float = 0.25,
@@ -171,7 +176,15 @@ class FrameClock:
         ys = [b[2] for b in bins]
         slope = 0.0
         if n >= 3 and -xs[0] >= self.min_span_s:
-            slope = _hull_slope(xs, ys)
+            # The hull's edge is taken where the points' mean lies. Bins far above the current
+            # line (a backlog, frames that keep coming late) would drag that mean onto a short,
+            # noisy edge at the end of the on-time history, so only the others place it.
+            on_time = xs
+            if self._have_fit:
+                line = self._ref_lag + self._skew * (x0 - self._ref_x)
+                on_time = [x for x, y in zip(xs, ys, strict=True)
+                           if y - (line + self._skew * x) <= LATE_S] or xs
+            slope = _hull_slope(xs, ys, sum(on_time) / len(on_time))
             if abs(slope) > self.max_skew:
                 slope = 0.0
         # Touch the lowest point (with the hull slope, that is the hull edge itself).
@@ -182,8 +195,9 @@ class FrameClock:
         self._have_fit = True
 
 
-def _hull_slope(xs: list[float], ys: list[float]) -> float:
-    """Slope of the best line under all points: the lower convex hull's edge at mean(x).
+def _hull_slope(xs: list[float], ys: list[float], mean_x: float | None = None) -> float:
+    """Slope of the best line under all points: the lower convex hull's edge at ``mean_x``
+    (default: the mean of ``xs``).
 
     Of all lines below every point, it minimises the mean gap to the points (the linear
     program of Moon, Skelly and Towsley, "Estimation and removal of clock skew from network
@@ -205,7 +219,8 @@ def _hull_slope(xs: list[float], ys: list[float]) -> float:
             hull[-1] = p
     if len(hull) < 2:
         return 0.0
-    mean_x = sum(xs) / len(xs)
+    if mean_x is None:
+        mean_x = sum(xs) / len(xs)
     for (ax, ay), (bx, by) in pairwise(hull):
         if bx >= mean_x:
             return (by - ay) / (bx - ax)

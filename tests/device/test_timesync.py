@@ -62,3 +62,27 @@ def test_reset_restarts_and_counts():
 def test_rejects_nan_host_time():
     with pytest.raises(ValueError):
         ClockSync().observe(0, float("nan"))
+
+
+@pytest.mark.parametrize("late_s", [0.2, 1.0])
+def test_frames_that_keep_arriving_late_do_not_move_the_mapping(late_s):
+    """A reader or a simulator that falls behind and stays behind (frames arrive at their
+    pace, but ``late_s`` after they were made) delays transport, not the device's clock: the
+    map keeps mapping each device time to when it happened. The device's microsecond counter
+    cannot step forward against the host's without a reset (handled apart), so a late stretch
+    is never taken for a step of the clock."""
+    rng = random.Random(3)
+    sync = ClockSync()
+    host0, min_delay = 50.0, 0.0012
+    errors = []
+    for k in range(80 * 30):  # 30 s at 80 Hz; from 15 s on, every frame comes late_s late
+        dev = k * 12_500
+        true_host = host0 + dev * 1e-6
+        arrival = true_host + min_delay + rng.expovariate(1 / 0.002)
+        if k >= 80 * 15:
+            arrival += late_s
+        d = sync.observe(dev, arrival)
+        if k >= 80 * 15:
+            errors.append(sync.to_host(d) - (true_host + min_delay))
+    worst = max(abs(e) for e in errors)
+    assert worst < 0.5e-3, worst

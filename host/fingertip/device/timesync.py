@@ -8,9 +8,18 @@ the same fit as the sound card's clock): the earliest arrival of each short bin,
 the lower convex hull gives the rate. Arrival jitter and late bursts then do not bias the
 map; only the minimum delay remains in it (a constant, the same for every frame). This module
 adds the 32-bit wraparound of the device's microsecond counter.
+
+Unlike the sound card's fit, this one never takes a stretch of late arrivals for a step of the
+clock. A sound card can drop frames upstream without saying so, which shifts its frame count
+for good. The device's microsecond counter only restarts with a reset, and that is handled
+apart (:meth:`ClockSync.reset`). So frames that keep arriving late mean late transport: a
+reader or a simulator that fell behind and stays behind. If the fit took that for a step, it
+would map every frame up to that delay late (a second, seen beside a busy host) for as long as
+the stretch lasts. Left alone, the old line holds until it leaves the window (``window_s``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..clockfit import FrameClock
@@ -80,8 +89,10 @@ class ClockSync:
 
     def __init__(self, window_s: float = 20.0, bin_s: float = 0.25, max_skew: float = 2e-3,
                  refit_every: int = 64, min_span_s: float = 4.0) -> None:
+        # No step detection (step_s = inf): see the module's docstring.
         self._clock = FrameClock(1e6, window_s=window_s, bin_s=bin_s, max_skew=max_skew,
-                                 min_span_s=min_span_s, refit_every=refit_every)
+                                 min_span_s=min_span_s, refit_every=refit_every,
+                                 step_s=math.inf)
         self._unwrap = Unwrapper()
         self.resets = 0
 
@@ -93,11 +104,6 @@ class ClockSync:
             return None
         ref_x, ref_lag = c.reference
         return ClockFit(round(ref_x * 1e6), ref_x + ref_lag, c.skew, c.points)
-
-    @property
-    def steps(self) -> int:
-        """Jumps of the arrival delay that made the fit drop its history (stalled links)."""
-        return self._clock.steps
 
     def reset(self) -> None:
         """Forget everything (after a device reset its clock restarts)."""
