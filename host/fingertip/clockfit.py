@@ -181,9 +181,8 @@ class FrameClock:
             # noisy edge at the end of the on-time history, so only the others place it.
             on_time = xs
             if self._have_fit:
-                line = self._ref_lag + self._skew * (x0 - self._ref_x)
                 on_time = [x for x, y in zip(xs, ys, strict=True)
-                           if y - (line + self._skew * x) <= LATE_S] or xs
+                           if y - self._lag_at(x0 + x) <= LATE_S] or xs
             slope = _hull_slope(xs, ys, sum(on_time) / len(on_time))
             if abs(slope) > self.max_skew:
                 slope = 0.0
