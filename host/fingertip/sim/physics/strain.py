@@ -38,6 +38,7 @@ from . import realism as _realism
 from ...hardware import FingertipParams, load, section_rigidity
 from .realism import Realism, SlowCreep, UnitRealism, eccentric_strain, lab_temperature
 from .scan import affine_scan, play_scan
+from .source import LOOKAHEAD, LookaheadSource
 
 FACE_ANGLES = np.array([0.0, 0.5, 1.0, 1.5]) * math.pi
 """Outward normal of each face (channel i), radians from +x."""
@@ -126,6 +127,15 @@ class _State:
     t_last: float | None = None
 
 
+@dataclass(frozen=True)
+class SensorState:
+    """What :meth:`VirtualStrainSensor.save_state` keeps."""
+    strain: _State
+    slow: np.ndarray
+    slow_t_last: float | None
+    noise: dict
+
+
 @dataclass
 class _Batch:
     """Intermediate results of one batch (for inspection and tests)."""
@@ -190,6 +200,19 @@ class VirtualStrainSensor:
         """Back to the virgin, fully relaxed state (no load history)."""
         self._state = _State(np.zeros((4, len(self._radii))), np.zeros(4), None)
         self._slow.reset()
+
+    def save_state(self) -> SensorState:
+        """A copy of everything carried between calls (load history and the noise's draws)."""
+        st, slow = self._state, self._slow
+        return SensorState(_State(st.play.copy(), st.creep.copy(), st.t_last),
+                           slow.state.copy(), slow.t_last, self._noise_rng.bit_generator.state)
+
+    def restore_state(self, saved: SensorState) -> None:
+        """Back to a :meth:`save_state` copy: the next calls give what they gave after it."""
+        st = saved.strain
+        self._state = _State(st.play.copy(), st.creep.copy(), st.t_last)
+        self._slow.state, self._slow.t_last = saved.slow.copy(), saved.slow_t_last
+        self._noise_rng.bit_generator.state = saved.noise
 
     # --- mechanics (stateless) ------------------------------------------------------------
 
@@ -399,8 +422,8 @@ class VirtualStrainSensor:
             self._state.t_last = float(t[-1])
         return _Batch(surface, gauge, mech, total, volts, counts_f)
 
-    def as_source(self, scene, t0_us: int = 0, rate_sps: int | None = None
-                  ) -> Callable[[int], tuple[float, ...]]:
+    def as_source(self, scene, t0_us: int = 0, rate_sps: int | None = None,
+                  lookahead: int = LOOKAHEAD) -> LookaheadSource:
         """The callable :class:`~fingertip.sim.VirtualFirmware` takes as ``source``.
 
         Device time ``t_us`` -> the four chips' inputs in counts at gain 128, unrounded and
@@ -408,22 +431,10 @@ class VirtualStrainSensor:
         ``(t_us - t0_us) / 1e6``; the sensor's own clock (creep, temperature) is device time.
         ``scene`` is anything with ``forces(t)`` (every scene has it, whatever it needs).
         With ``rate_sps`` None the HX711 noise follows the interval between calls (>= 50 ms:
-        10 SPS, else 80 SPS). Calls must come in time order (hysteresis and creep).
+        10 SPS, else 80 SPS). Calls must come in time order (hysteresis and creep). The
+        physics runs ``lookahead`` conversions at a time (:mod:`.source`).
         """
-        last: list[int | None] = [None]
-
-        def source(t_us: int) -> tuple[float, ...]:
-            rate = rate_sps
-            if rate is None:
-                rate = self.rate_sps if last[0] is None else \
-                    (10 if t_us - last[0] >= 50_000 else 80)
-            last[0] = t_us
-            fs = scene.forces(np.array([(t_us - t0_us) * 1e-6]))
-            raw = self.raw_counts_batch(fs.xy, fs.height_mm, [t_us * 1e-6], fs.z,
-                                        rate_sps=rate)
-            return tuple(float(v) for v in raw[0])
-
-        return source
+        return LookaheadSource(self, scene, t0_us, rate_sps, lookahead)
 
 
 def cap_deflection_m(params: FingertipParams, force_n: float, contact_height_mm: float = 0.0
