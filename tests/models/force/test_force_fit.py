@@ -328,3 +328,47 @@ def test_non_finite_rows_in_a_file_are_located(tmp_path):
     (tmp_path / "a.csv").write_text("\n".join(rows) + "\n")
     with pytest.raises(NonFiniteError, match="a.csv: 1 row.*line 13"):
         load_dataset(tmp_path)
+
+
+class _LoadedMachine:
+    """A clock and onnxruntime sessions on a machine whose load comes in stretches: every
+    call costs the same work, but takes three times longer while the machine is busy."""
+
+    def __init__(self, stretch_ns: int):
+        self.now = 0
+        self.stretch_ns = stretch_ns
+
+    def perf_counter_ns(self) -> int:
+        return self.now
+
+    def session(self, path):
+        from types import SimpleNamespace
+        machine = self
+
+        class Session:
+            def get_inputs(self):
+                return [SimpleNamespace(name="x")]
+
+            def run(self, _outputs, feed):
+                busy = (machine.now // machine.stretch_ns) % 2 == 0
+                machine.now += 10_000 * len(feed["x"]) * (3 if busy else 1)
+
+        return Session()
+
+
+@pytest.mark.parametrize("stretch_ms", [1, 3, 7, 20])
+def test_equal_models_time_equal_on_a_machine_with_changing_load(monkeypatch, stretch_ms):
+    # Two models doing the same work must not come out one faster than the other because
+    # the machine was busier while one of them was timed: that decided the calibration's
+    # choice between affine and mlp16x16 on a busy machine (8 % apart).
+    from types import SimpleNamespace
+
+    from fingertip.models.force.calibration import evaluate
+    machine = _LoadedMachine(stretch_ms * 1_000_000)
+    monkeypatch.setattr(evaluate, "open_session", machine.session)
+    monkeypatch.setattr(evaluate, "time", SimpleNamespace(perf_counter_ns=machine.perf_counter_ns))
+    lat = evaluate.measure_latency({"a": "a.onnx", "b": "b.onnx"}, np.zeros((5, 4)),
+                                   batch=10)
+    (a1, ab), (b1, bb) = lat["a"], lat["b"]
+    assert max(a1, b1) / min(a1, b1) < 1.05, lat
+    assert max(ab, bb) / min(ab, bb) < 1.05, lat

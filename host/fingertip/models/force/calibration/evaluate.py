@@ -44,12 +44,15 @@ def angle_keys(data: CalibrationData, step_deg: float = 10.0) -> np.ndarray:
 
 
 def measure_latency(paths: dict[str, Path] | str | Path, sample: np.ndarray, *,
-                    single_calls: int = 2000, batch: int = 1000, batch_repeats: int = 30,
-                    rounds: int = 5):
+                    single_calls: int = 2000, batch: int = 1000, batch_repeats: int = 30):
     """Median microseconds per estimate with onnxruntime (one thread): one frame per call
     (``single_calls`` timed calls per model) and a batch of ``batch`` frames (per frame,
-    ``batch_repeats`` calls). Several models are measured in interleaved ``rounds``, so
-    that a machine getting busier or quieter does not favour one of them.
+    ``batch_repeats`` calls).
+
+    Several models are timed call by call in turn, each leading in rotation, so that a
+    machine getting busier or quieter weighs on all of them alike. (Timed a stretch of calls
+    at a time, two equally fast models came out 8 % apart on a busy 2-core machine, which
+    decided the calibration's choice.)
 
     ``paths``: {name: path} -> {name: (single_us, batch_us)}; one path -> (single, batch).
     """
@@ -58,33 +61,33 @@ def measure_latency(paths: dict[str, Path] | str | Path, sample: np.ndarray, *,
     x = np.asarray(sample, np.float32)
     one = np.ascontiguousarray(x[:1])
     many = np.ascontiguousarray(np.resize(x, (batch, x.shape[1])))
-    sessions = {}
+    sessions = []
     for name, path in named.items():
         sess = open_session(path)
         inp = sess.get_inputs()[0].name
         for _ in range(100):
             sess.run(None, {inp: one})
         sess.run(None, {inp: many})
-        sessions[name] = (sess, inp)
-    clock = time.perf_counter_ns
-    single: dict[str, list[int]] = {k: [] for k in named}
-    batched: dict[str, list[int]] = {k: [] for k in named}
-    rounds = max(1, min(rounds, single_calls, batch_repeats))
-    for r in range(rounds):
-        for name, (sess, inp) in sessions.items():
-            t = single[name]
-            for _ in range(single_calls // rounds + (r < single_calls % rounds)):
-                t0 = clock()
-                sess.run(None, {inp: one})
-                t.append(clock() - t0)
-            tb = batched[name]
-            for _ in range(batch_repeats // rounds + (r < batch_repeats % rounds)):
-                t0 = clock()
-                sess.run(None, {inp: many})
-                tb.append(clock() - t0)
+        sessions.append((name, sess, inp))
+    single = _interleaved(sessions, one, single_calls)
+    batched = _interleaved(sessions, many, batch_repeats)
     res = {k: (statistics.median(single[k]) / 1e3, statistics.median(batched[k]) / 1e3 / batch)
            for k in named}
     return res["model"] if one_path else res
+
+
+def _interleaved(sessions: list, feed: np.ndarray, calls: int) -> dict[str, list[int]]:
+    """Nanoseconds of ``calls`` runs of each session on ``feed``, one call of each in turn."""
+    clock = time.perf_counter_ns
+    times: dict[str, list[int]] = {name: [] for name, _, _ in sessions}
+    n = len(sessions)
+    for i in range(calls):
+        for j in range(n):
+            name, sess, inp = sessions[(i + j) % n]
+            t0 = clock()
+            sess.run(None, {inp: feed})
+            times[name].append(clock() - t0)
+    return times
 
 
 def extreme_inputs(seed: int = 0, random_rows: int = 200) -> np.ndarray:
