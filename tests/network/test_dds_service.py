@@ -14,6 +14,8 @@ from fingertip.network.dds import (
 from fingertip.network.ros_types import TRIGGER_REQUEST, TRIGGER_RESPONSE
 from fingertip.record import schemas as S
 
+from tests.device.waiting import wait_for
+
 from .conftest import start, wait_line
 
 SERVICE = "/fingertip/index/tare"
@@ -109,18 +111,6 @@ def test_read_only_serves_no_tare():
     assert "tare:" not in err
 
 
-def _wait_for_growth(path, timeout: float) -> bool:
-    """Whether ``path`` grows within ``timeout`` s: the recorder flushes what it received
-    every 0.5 s, so a file that grows has messages in it."""
-    size = path.stat().st_size
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        if path.stat().st_size > size:
-            return True
-        time.sleep(0.1)
-    return False
-
-
 def test_publisher_outlives_a_killed_subscriber(tmp_path):
     pub = start("publish", "--virtual", "1", "--name", "index", "--duration", "20")
     err2 = ""
@@ -133,9 +123,11 @@ def test_publisher_outlives_a_killed_subscriber(tmp_path):
         b = tmp_path / "b.mcap"
         second = start("record", "--from", "dds", "--name", "index", "-o", str(b))
         wait_line(second, "recording index from dds")
-        # Until frames arrive (discovery, and start-up on a loaded machine, vary: a fixed
-        # 2.5 s once ended before the first frame), then 1.5 s of them.
-        flowing = _wait_for_growth(b, timeout=12.0)
+        size = b.stat().st_size
+        # Until frames arrive (discovery and start-up on a loaded machine vary: a fixed 2.5 s
+        # once ended before the first frame), then 1.5 s of them. The recorder flushes what
+        # it received every 0.5 s, so a file that grows has messages in it.
+        flowing = wait_for(lambda: b.stat().st_size > size, timeout=12.0, step=0.1)
         time.sleep(1.5)
         second.send_signal(signal.SIGTERM)
         _, err2 = second.communicate(timeout=20)

@@ -2,7 +2,7 @@
 chips' inputs in counts, computed a block of conversions ahead.
 
 The device library asks for one conversion at a time. Run one at a time, the physics costs
-numpy's per-call overhead on every sample (about 0.3 ms), which starved the virtual device
+numpy's per-call overhead on every sample (about 0.7 ms), which starved the virtual device
 behind a pty at 4x speed on a busy host. The chips convert on a fixed period, so this source
 predicts the next ``lookahead`` conversion times, runs the physics for all of them in one
 batch, and serves them while the device asks for exactly those times and the scene still

@@ -126,6 +126,9 @@ class _State:
     creep: np.ndarray           # (4,) creep filter state
     t_last: float | None = None
 
+    def copy(self) -> _State:
+        return _State(self.play.copy(), self.creep.copy(), self.t_last)
+
 
 @dataclass(frozen=True)
 class SensorState:
@@ -203,14 +206,13 @@ class VirtualStrainSensor:
 
     def save_state(self) -> SensorState:
         """A copy of everything carried between calls (load history and the noise's draws)."""
-        st, slow = self._state, self._slow
-        return SensorState(_State(st.play.copy(), st.creep.copy(), st.t_last),
-                           slow.state.copy(), slow.t_last, self._noise_rng.bit_generator.state)
+        slow = self._slow
+        return SensorState(self._state.copy(), slow.state.copy(), slow.t_last,
+                           self._noise_rng.bit_generator.state)
 
     def restore_state(self, saved: SensorState) -> None:
         """Back to a :meth:`save_state` copy: the next calls give what they gave after it."""
-        st = saved.strain
-        self._state = _State(st.play.copy(), st.creep.copy(), st.t_last)
+        self._state = saved.strain.copy()
         self._slow.state, self._slow.t_last = saved.slow.copy(), saved.slow_t_last
         self._noise_rng.bit_generator.state = saved.noise
 
