@@ -83,3 +83,23 @@ def test_the_command_runs_the_unit_the_readme_quotes():
     p = argparse.ArgumentParser()
     add_parsers(p.add_subparsers())
     assert p.parse_args(["demo"]).seed == inspect.signature(run_demo).parameters["seed"].default
+
+
+@pytest.mark.realtime
+@pytest.mark.slow
+def test_a_device_behind_the_wall_clock_still_plays_the_whole_scene(tmp_path, monkeypatch):
+    """The scene is scheduled on the device's clock: a device that runs slower than the wall
+    clock (simavr on a busy host) is read until it has played the scene to its end."""
+    import fingertip.sim.device.pty_device as pty_device
+
+    class Slow(pty_device.PtyDevice):
+        def __init__(self, *a, **kw):
+            super().__init__(*a, speed=0.85, **kw)
+
+    monkeypatch.setattr(pty_device, "PtyDevice", Slow)
+    r = run_demo(tmp_path, use_firmware=False, live=False)
+    span_s = (r.frames[-1].device_time_us - r.frames[0].device_time_us) * 1e-6
+    assert span_s > demo_scene().duration_s
+    makes = [e for e in r.events if e.kind == "contact_make"]
+    breaks = [e for e in r.events if e.kind == "contact_break"]
+    assert len(makes) == len(breaks) == 4
