@@ -161,6 +161,7 @@ def test_read_before_start_and_restart(tmp_path):
         np.testing.assert_array_equal(got, x)
 
 
+@pytest.mark.realtime
 def test_replay_keeps_the_recordings_own_timestamps_and_paces_from_now(tmp_path):
     path = tmp_path / "x.wav"
     sf.write(path, pcm(16, 1, FS // 10), FS)

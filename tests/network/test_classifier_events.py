@@ -6,6 +6,7 @@ import json
 import signal
 
 import numpy as np
+import pytest
 import soundfile as sf
 
 from fingertip.models.vibration.material import train_material
@@ -29,6 +30,7 @@ def small_model(tmp_path):
     return tmp_path / "model" / "material.onnx", list(PAPER_SEVEN[:2])
 
 
+@pytest.mark.realtime
 def test_material_predictions_are_published_as_events(tmp_path):
     model, classes = small_model(tmp_path)
     assert model.exists(), sorted(p.name for p in model.parent.iterdir())

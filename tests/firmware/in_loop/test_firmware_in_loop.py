@@ -86,6 +86,7 @@ def test_80_frames_per_simulated_second_without_gaps(make_sim, channels):
             assert timing["read_us"]["max"] < 150.0
 
 
+@pytest.mark.realtime
 def test_tare_zeroes_within_noise_and_info_reports_offsets(make_sim):
     sim = make_sim(4, noise=30.0)
     base = [120_000, -250_000, 3_000_000, 42]

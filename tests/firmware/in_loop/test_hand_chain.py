@@ -10,6 +10,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 import soundfile as sf
 
 from fingertip.record.reader import Recording
@@ -119,6 +120,7 @@ def test_hand_split_needs_the_16_channel_firmware(make_sim):
     assert len(lines) == 1 and "needs 16 channels" in lines[0] and "--channels 16" in lines[0]
 
 
+@pytest.mark.realtime
 def test_publish_hand_split_4x4_to_a_subscriber_in_another_process(make_sim, tmp_path,
                                                                   monkeypatch):
     """`publish --port P --hand-split 4x4 --hand-audio 4-INPUT` over DDS on loopback: a

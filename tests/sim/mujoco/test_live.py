@@ -56,6 +56,7 @@ def test_unknown_scene_is_refused():
         LiveSimulation("cups")
 
 
+@pytest.mark.realtime
 def test_cli_serves_a_mujoco_fingertip_that_stream_reads(tmp_path):
     link = tmp_path / "mj"
     p = subprocess.Popen([EXE, "sim", "mujoco", "--scene", "pinch", "--link", str(link)],
