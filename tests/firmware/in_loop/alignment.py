@@ -31,10 +31,6 @@ from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingerti
 FS = 44_100
 BLOCK = 441
 LATENCY = 0.008
-WINDOW_S = 20.0
-"""The device map's history (fingertip.device.timesync.ClockSync's window)."""
-ON_TIME_S = 0.001
-"""A frame within this of its due time came on time (a pty's usual floor here: 0.1-0.8 ms)."""
 
 
 @dataclass
@@ -43,14 +39,6 @@ class AlignResult:
     force_error_ms: float       # worst |force map - truth|
     audio_error_ms: float       # worst |audio map - truth|
     frames: int
-    on_time: float = 1.0
-    """Share of the last ``WINDOW_S`` s (the map's history) whose 0.25 s bins hold a frame
-    that arrived within ``ON_TIME_S`` of its due time: below one half, simavr ran behind its
-    pacing line for most of it (a starved host), and no map could find the line."""
-
-    @property
-    def device_kept_pace(self) -> bool:
-        return self.on_time >= 0.5
 
 
 def _sound_card(stop: threading.Event, clock: FrameClock, a0: float, err: float,
@@ -105,16 +93,4 @@ def measure(device_ppm: float, audio_ppm: float, seconds: float = 25.0,
                 worst_align = max(worst_align, abs(force_est - audio_est))
                 worst_force = max(worst_force, abs(force_est - truth))
                 worst_audio = max(worst_audio, abs(audio_est - truth))
-    return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames),
-                       _on_time_share(frames, w0, F))
-
-
-def _on_time_share(frames, w0: float, F: float) -> float:
-    """Share of the last WINDOW_S s of bins (0.25 s of device time) with an on-time frame."""
-    bin_us = 250_000
-    last = frames[-1].device_time_us // bin_us
-    first = last - round(WINDOW_S * 1e6 / bin_us) + 1
-    on_time = {f.device_time_us // bin_us for f in frames
-               if f.device_time_us // bin_us >= first
-               and f.arrival_time - (w0 + f.device_time_us * 1e-6 / F) <= ON_TIME_S}
-    return len(on_time) / (last - first + 1)
+    return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames))
