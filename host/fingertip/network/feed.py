@@ -18,6 +18,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any, Protocol
 
+import numpy as np
+
 from ..audio import AudioSource, Chunk
 from ..device import Frame
 from ..record import schemas as S
@@ -205,25 +207,54 @@ class Feed:
             if also is not None:
                 also(name, chunk)
 
+        def publish(chunk: Chunk) -> None:
+            if not split:
+                deliver(names[0], chunk)
+            else:
+                for k, name in enumerate(names):
+                    deliver(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
+
+        def wait_for(chunk: Chunk, index: int) -> None:
+            # Until frame ``index`` has been captured (plus a moment for the card to hand
+            # over its block); never longer than min_s, whatever clock a replayed chunk's
+            # times are on.
+            due = chunk.time_of(index) + 0.002
+            self._stop.wait(min(min_s, max(0.0, due - time.monotonic())))
+
         def pump() -> None:
+            held: Chunk | None = None  # read, short of min_frames, waiting for the rest
+            held_until = 0.0
             try:
                 while not self._stop.is_set():
-                    chunk = source.read(max_frames, timeout=0.05)
+                    wait = 0.05 if held is None else min(0.05, held_until - time.monotonic())
+                    chunk = source.read(max_frames, timeout=max(0.0, wait))
                     if chunk is None:
                         if source.finished:
                             break
+                        if held is not None and time.monotonic() >= held_until:
+                            publish(held)
+                            held = None
                         continue
-                    if not split:
-                        deliver(names[0], chunk)
-                    else:
-                        for k, name in enumerate(names):
-                            deliver(name, replace(chunk, samples=chunk.samples[:, k:k + 1]))
+                    if held is not None:
+                        joined = _joined(held, chunk, max_frames)
+                        if joined is None:
+                            publish(held)
+                        else:
+                            chunk = joined
+                        held = None
                     if min_frames and source.running:
-                        # Read again once the next min_frames have been captured (plus
-                        # a moment for the card to hand over its block); never longer
-                        # than min_s, whatever clock a replayed chunk's times are on.
-                        due = chunk.time_of(chunk.end_index + min_frames) + 0.002
-                        self._stop.wait(min(min_s, max(0.0, due - time.monotonic())))
+                        # A card handed its block over late (a busy host): the rest of
+                        # min_frames is due soon, so hold this part for up to min_s.
+                        if chunk.frames < min_frames:
+                            held, held_until = chunk, time.monotonic() + min_s
+                            wait_for(chunk, chunk.first_index + min_frames)
+                            continue
+                        publish(chunk)
+                        wait_for(chunk, chunk.end_index + min_frames)
+                    else:
+                        publish(chunk)
+                if held is not None:  # read from the card: published, never dropped
+                    publish(held)
             except Exception as e:  # a broken sound card is an event, not a dead publisher
                 log.error("audio %s: %s", ", ".join(names), e)
                 for name in names:
@@ -250,3 +281,11 @@ class Feed:
         if key not in self._told:
             self._told.add(key)
             log.warning(msg, *args)
+
+
+def _joined(a: Chunk, b: Chunk, max_frames: int) -> Chunk | None:
+    """``a`` then ``b`` as one chunk, when ``b`` follows on without a gap and both fit."""
+    if (b.first_index != a.end_index or b.lost_before or a.channels != b.channels
+            or a.frames + b.frames > max_frames):
+        return None
+    return replace(a, samples=np.concatenate([a.samples, b.samples]))
