@@ -23,7 +23,8 @@ import random
 import statistics
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 
 from fingertip.clockfit import FrameClock
 from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
@@ -39,6 +40,15 @@ class AlignResult:
     force_error_ms: float       # worst |force map - truth|
     audio_error_ms: float       # worst |audio map - truth|
     frames: int
+    trace: list[tuple[int, float, float]] = field(default_factory=list, repr=False)
+    """Per frame: device time (us), arrival - truth (ms), force map - truth (ms)."""
+
+    def write_trace(self, path: Path) -> Path:
+        """The frames as CSV, to replay a failed run through the clock map offline."""
+        rows = ["device_time_us,arrival_minus_truth_ms,map_minus_truth_ms"]
+        rows += [f"{d},{a:.4f},{m:.4f}" for d, a, m in self.trace]
+        path.write_text("\n".join(rows) + "\n")
+        return path
 
 
 def _sound_card(stop: threading.Event, clock: FrameClock, a0: float, err: float,
@@ -93,4 +103,7 @@ def measure(device_ppm: float, audio_ppm: float, seconds: float = 25.0,
                 worst_align = max(worst_align, abs(force_est - audio_est))
                 worst_force = max(worst_force, abs(force_est - truth))
                 worst_audio = max(worst_audio, abs(audio_est - truth))
-    return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames))
+    trace = [(f.device_time_us, (f.arrival_time - (w0 + f.device_time_us * 1e-6 / F)) * 1e3,
+              (f.host_time - (w0 + f.device_time_us * 1e-6 / F)) * 1e3) for f in frames]
+    return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames),
+                       trace)
