@@ -26,12 +26,18 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fingertip.clockfit import FrameClock
+from fingertip.clockfit import LATE_S, FrameClock
 from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 FS = 44_100
 BLOCK = 441
 LATENCY = 0.008
+WINDOW_S = 20.0
+"""The device map's history (fingertip.device.timesync.ClockSync's default window)."""
+BIN_S = 0.25
+MIN_ON_TIME_S = 4.0
+"""How much of that window must hold frames that came on time (less than the map's LATE_S
+late) for the map to know the line: its min_span_s."""
 
 
 @dataclass
@@ -42,6 +48,17 @@ class AlignResult:
     frames: int
     trace: list[tuple[int, float, float]] = field(default_factory=list, repr=False)
     """Per frame: device time (us), arrival - truth (ms), force map - truth (ms)."""
+
+    @property
+    def on_time_s(self) -> float:
+        """Seconds of the map's window (the last WINDOW_S of frames) in BIN_S bins with a
+        frame less than LATE_S late. None there: simavr ran behind its pacing line for the
+        whole window (a starved host), and no map can find a line it was never shown."""
+        last = int(self.trace[-1][0] // (BIN_S * 1e6))
+        first = last - round(WINDOW_S / BIN_S) + 1
+        bins = {int(d // (BIN_S * 1e6)) for d, late_ms, _ in self.trace
+                if late_ms < LATE_S * 1e3}
+        return sum(1 for b in bins if b >= first) * BIN_S
 
     def write_trace(self, path: Path) -> Path:
         """The frames as CSV, to replay a failed run through the clock map offline."""
