@@ -19,6 +19,7 @@ the truth.
 """
 from __future__ import annotations
 
+import inspect
 import random
 import statistics
 import threading
@@ -27,17 +28,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fingertip.clockfit import LATE_S, FrameClock
+from fingertip.device.timesync import ClockSync
 from fingertip.sim.device.simavr import FirmwareSim, firmware_elf, open_fingertip
 
 FS = 44_100
 BLOCK = 441
 LATENCY = 0.008
-WINDOW_S = 20.0
-"""The device map's history (fingertip.device.timesync.ClockSync's default window)."""
-BIN_S = 0.25
-MIN_ON_TIME_S = 4.0
+_MAP = inspect.signature(ClockSync).parameters
+WINDOW_S: float = _MAP["window_s"].default
+"""The device map's history (ClockSync's default window)."""
+BIN_S: float = _MAP["bin_s"].default
+MIN_ON_TIME_S: float = _MAP["min_span_s"].default
 """How much of that window must hold frames that came on time (less than the map's LATE_S
-late) for the map to know the line: its min_span_s."""
+late) for the map to know the line: the history it needs to read a rate."""
 
 
 @dataclass
@@ -108,19 +111,23 @@ def measure(device_ppm: float, audio_ppm: float, seconds: float = 25.0,
             assert max(w0s) - min(w0s) < 1e-5, (min(w0s), max(w0s))
             w0 = statistics.median(w0s)
             # Instants over the last 5 s, where both estimators have a full history.
+            def due(t_us: float) -> float:
+                """The host time simavr's pacing gives device time ``t_us``: the truth."""
+                return w0 + t_us * 1e-6 / F
+
             rng = random.Random(seed)
             last = frames[-1].device_time_us
             worst_align = worst_force = worst_audio = 0.0
             for _ in range(200):
                 t_dev = last - rng.uniform(0, 5e6)
-                truth = w0 + t_dev * 1e-6 / F
+                truth = due(t_dev)
                 force_est = ft.clock.to_host(t_dev)
                 k = (truth - a0) * FS * (1 + audio_ppm * 1e-6)
                 audio_est = audio.to_host(k)
                 worst_align = max(worst_align, abs(force_est - audio_est))
                 worst_force = max(worst_force, abs(force_est - truth))
                 worst_audio = max(worst_audio, abs(audio_est - truth))
-    trace = [(f.device_time_us, (f.arrival_time - (w0 + f.device_time_us * 1e-6 / F)) * 1e3,
-              (f.host_time - (w0 + f.device_time_us * 1e-6 / F)) * 1e3) for f in frames]
+    trace = [(f.device_time_us, (f.arrival_time - due(f.device_time_us)) * 1e3,
+              (f.host_time - due(f.device_time_us)) * 1e3) for f in frames]
     return AlignResult(worst_align * 1e3, worst_force * 1e3, worst_audio * 1e3, len(frames),
                        trace)
