@@ -110,11 +110,12 @@ def measure(device_ppm: float, audio_ppm: float, seconds: float = 25.0,
             # One anchor for the whole run (the pacing's), to a microsecond.
             assert max(w0s) - min(w0s) < 1e-5, (min(w0s), max(w0s))
             w0 = statistics.median(w0s)
-            # Instants over the last 5 s, where both estimators have a full history.
+
             def due(t_us: float) -> float:
                 """The host time simavr's pacing gives device time ``t_us``: the truth."""
                 return w0 + t_us * 1e-6 / F
 
+            # Instants over the last 5 s, where both estimators have a full history.
             rng = random.Random(seed)
             last = frames[-1].device_time_us
             worst_align = worst_force = worst_audio = 0.0
